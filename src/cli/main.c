@@ -1,0 +1,483 @@
+/*
+ * main.c: the `dtx` command.  Parses the command line, calls the I/O layer
+ * and the driver, prints messages.  Exit status 0 on success, 1 on any
+ * error (with "dtx: error: ..." on stderr), 2 on a usage error.
+ */
+#include "driver.h"
+#include "dtx_core.h"
+#include "h5layout.h"
+#include "job.h"
+#include "meshfile.h"
+
+#include <dirent.h>
+#include <ctype.h>
+#include <errno.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+static const char usage_text[] =
+    "usage:\n"
+    "  dtx import mesh FILE.(obj|ply|off) -o OUT.h5 --name NAME\n"
+    "  dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
+    "                      [--dtype float32|float64]\n"
+    "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
+    "                     [--source /meshes/A] [--target /meshes/B]\n"
+    "  dtx run JOB.json [--quiet] [--summary FILE.json]     (alone or under mpirun)\n"
+    "  dtx export FILE.h5 /results/TARGET/SEQUENCE --obj-dir DIR\n"
+    "  dtx validate FILE.h5\n"
+    "  dtx version\n";
+
+static int usage(const char *msg)
+{
+    if (msg)
+        fprintf(stderr, "dtx: %s\n", msg);
+    fputs(usage_text, stderr);
+    return 2;
+}
+
+static int fail(const dtx_error *err)
+{
+    fprintf(stderr, "dtx: error: %s\n", err->msg);
+    return 1;
+}
+
+static void print_warning(void *ctx, const char *msg)
+{
+    (void)ctx;
+    fprintf(stderr, "dtx: warning: %s\n", msg);
+}
+
+/* Option lookup: returns the value following `name`, or NULL. */
+static const char *opt(int argc, char **argv, const char *name)
+{
+    for (int i = 0; i < argc - 1; i++)
+        if (strcmp(argv[i], name) == 0)
+            return argv[i + 1];
+    return NULL;
+}
+
+static int is_flag_with_value(const char *a)
+{
+    static const char *const names[] = {"-o",       "--name",   "--mesh",    "--dtype",
+                                        "--index-base", "--source", "--target", "--obj-dir",
+                                        "--summary"};
+    for (size_t i = 0; i < sizeof names / sizeof *names; i++)
+        if (strcmp(a, names[i]) == 0)
+            return 1;
+    return 0;
+}
+
+/* Positional arguments (not options or option values), from index `from`. */
+static int positionals(int argc, char **argv, int from, char **out, int cap)
+{
+    int n = 0;
+    for (int i = from; i < argc; i++) {
+        if (is_flag_with_value(argv[i])) {
+            i++;
+            continue;
+        }
+        if (argv[i][0] == '-' && argv[i][1] == '-')
+            continue;
+        if (n < cap)
+            out[n] = argv[i];
+        n++;
+    }
+    return n;
+}
+
+/* Opens OUT.h5 for adding objects, creating it when missing (*created = 1). */
+static dtx_status open_for_import(const char *path, hid_t *file, int *created, dtx_error *err)
+{
+    *created = access(path, F_OK) != 0;
+    if (*created)
+        return dtx_h5_create(path, MPI_COMM_NULL, file, err);
+    return dtx_h5_open(path, MPI_COMM_NULL, 1, file, err);
+}
+
+static int finish_import(const char *path, hid_t *file, int created, dtx_status st,
+                         dtx_error *err)
+{
+    dtx_error e2;
+    if (dtx_h5_close(file, &e2) != DTX_OK && st == DTX_OK) {
+        *err = e2;
+        st = e2.code;
+    }
+    if (st != DTX_OK) {
+        if (created)
+            remove(path); /* no half-written new file */
+        return fail(err);
+    }
+    return 0;
+}
+
+static int cmd_import_mesh(int argc, char **argv)
+{
+    char *pos[2];
+    const char *out = opt(argc, argv, "-o"), *name = opt(argc, argv, "--name");
+    dtx_error err;
+    dtx_mesh m;
+    dtx_warner w = {print_warning, NULL};
+    hid_t f = H5I_INVALID_HID;
+    int created = 0;
+    char group[DTX_H5_PATH_MAX];
+    dtx_status st;
+    if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
+        return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
+    st = dtx_mesh_read(pos[0], &m, &w, &err);
+    if (st != DTX_OK)
+        return fail(&err);
+    snprintf(group, sizeof group, "/meshes/%s", name);
+    st = open_for_import(out, &f, &created, &err);
+    if (st == DTX_OK)
+        st = dtx_h5_write_mesh(f, group, &m, pos[0], &err);
+    dtx_mesh_free(&m);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %s -> %s:%s\n", pos[0], out, group);
+    return finish_import(out, &f, created, st, &err);
+}
+
+/* Natural order: digit runs compare by value ("cat-2" < "cat-10"). */
+static int natural_cmp(const void *a, const void *b)
+{
+    const char *x = *(const char *const *)a, *y = *(const char *const *)b;
+    while (*x && *y) {
+        if (isdigit((unsigned char)*x) && isdigit((unsigned char)*y)) {
+            const char *xs = x, *ys = y;
+            size_t lx, ly;
+            while (*xs == '0')
+                xs++;
+            while (*ys == '0')
+                ys++;
+            x = xs;
+            y = ys;
+            while (isdigit((unsigned char)*x))
+                x++;
+            while (isdigit((unsigned char)*y))
+                y++;
+            lx = (size_t)(x - xs);
+            ly = (size_t)(y - ys);
+            if (lx != ly)
+                return lx < ly ? -1 : 1;
+            {
+                int c = strncmp(xs, ys, lx);
+                if (c)
+                    return c;
+            }
+        } else {
+            if (*x != *y)
+                return (unsigned char)*x < (unsigned char)*y ? -1 : 1;
+            x++;
+            y++;
+        }
+    }
+    return (*x != 0) - (*y != 0);
+}
+
+static int has_mesh_ext(const char *name)
+{
+    const char *dot = strrchr(name, '.');
+    return dot && (strcasecmp(dot, ".obj") == 0 || strcasecmp(dot, ".ply") == 0 ||
+                   strcasecmp(dot, ".off") == 0);
+}
+
+/* The frame files: the mesh files of a directory in natural order, or the
+ * files given.  Returns a malloc'ed array of malloc'ed paths. */
+static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
+{
+    struct stat sb;
+    char **list = NULL;
+    *n = 0;
+    if (npos == 1 && stat(pos[0], &sb) == 0 && S_ISDIR(sb.st_mode)) {
+        DIR *d = opendir(pos[0]);
+        struct dirent *e;
+        int cap = 0;
+        if (!d) {
+            dtx_seterr(err, DTX_EIO, "%s: cannot read directory: %s", pos[0], strerror(errno));
+            return NULL;
+        }
+        while ((e = readdir(d))) {
+            if (e->d_name[0] == '.' || !has_mesh_ext(e->d_name))
+                continue;
+            if (*n == cap) {
+                char **nl;
+                cap = cap ? 2 * cap : 64;
+                nl = realloc(list, (size_t)cap * sizeof *list);
+                if (!nl)
+                    break;
+                list = nl;
+            }
+            list[*n] = malloc(strlen(pos[0]) + strlen(e->d_name) + 2);
+            if (!list[*n])
+                break;
+            sprintf(list[*n], "%s/%s", pos[0], e->d_name);
+            (*n)++;
+        }
+        closedir(d);
+        if (*n == 0) {
+            free(list);
+            dtx_seterr(err, DTX_EINVAL, "%s: no .obj, .ply or .off files", pos[0]);
+            return NULL;
+        }
+        qsort(list, (size_t)*n, sizeof *list, natural_cmp);
+        return list;
+    }
+    list = calloc((size_t)npos + 1, sizeof *list);
+    if (!list) {
+        dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        return NULL;
+    }
+    for (int i = 0; i < npos; i++)
+        list[i] = strdup(pos[i]);
+    *n = npos;
+    return list;
+}
+
+static int cmd_import_sequence(int argc, char **argv)
+{
+    char *pos[100000];
+    int npos = positionals(argc, argv, 3, pos, 100000), nframes = 0, created = 0;
+    const char *out = opt(argc, argv, "-o"), *name = opt(argc, argv, "--name"),
+               *mesh = opt(argc, argv, "--mesh"), *dtype = opt(argc, argv, "--dtype");
+    char **files = NULL, group[DTX_H5_PATH_MAX];
+    dtx_error err;
+    dtx_status st;
+    dtx_mesh rest, fr;
+    dtx_h5_seq seq;
+    dtx_warner w = {print_warning, NULL};
+    hid_t f = H5I_INVALID_HID;
+    double *buf = NULL;
+    const int chunk = DTX_H5_DEFAULT_CHUNK_FRAMES;
+    int f64 = 0, nbuf = 0;
+    if (npos < 1 || npos > 100000 || !out || !name || !mesh)
+        return usage("import sequence needs frame files or a directory, -o OUT.h5, --name NAME "
+                     "and --mesh /meshes/MESH");
+    if (dtype && strcmp(dtype, "float64") == 0)
+        f64 = 1;
+    else if (dtype && strcmp(dtype, "float32") != 0)
+        return usage("--dtype must be float32 or float64");
+    memset(&rest, 0, sizeof rest);
+    memset(&seq, 0, sizeof seq);
+    files = frame_list(pos, npos, &nframes, &err);
+    if (!files)
+        return fail(&err);
+    snprintf(group, sizeof group, "/sequences/%s", name);
+    st = open_for_import(out, &f, &created, &err);
+    if (st == DTX_OK)
+        st = dtx_h5_read_mesh(f, mesh, &rest, &err);
+    if (st == DTX_OK)
+        st = dtx_h5_seq_create(f, group, mesh, nframes, rest.nv, f64, chunk, 1, &seq, &err);
+    if (st == DTX_OK) {
+        buf = dtx_alloc((size_t)chunk * rest.nv, 3 * sizeof *buf, 0);
+        if (!buf)
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+    }
+    for (int i = 0; st == DTX_OK && i < nframes; i++) {
+        st = dtx_mesh_read(files[i], &fr, &w, &err);
+        if (st != DTX_OK)
+            break;
+        if (fr.nv != rest.nv)
+            st = dtx_seterr(&err, DTX_EFORMAT,
+                            "%s: frame %d has %d vertices but the rest mesh %s has %d", files[i],
+                            i, (int)fr.nv, mesh, (int)rest.nv);
+        else if (fr.nf != rest.nf ||
+                 memcmp(fr.F, rest.F, (size_t)rest.nf * 3 * sizeof *rest.F) != 0)
+            st = dtx_seterr(&err, DTX_EFORMAT,
+                            "%s: frame %d has different faces from the rest mesh %s (%d faces "
+                            "vs %d): every frame must share the rest mesh's connectivity",
+                            files[i], i, mesh, (int)fr.nf, (int)rest.nf);
+        else
+            memcpy(buf + (size_t)nbuf * 3 * rest.nv, fr.V, (size_t)rest.nv * 3 * sizeof *buf);
+        dtx_mesh_free(&fr);
+        if (st == DTX_OK && ++nbuf == chunk) {
+            st = dtx_h5_seq_write(&seq, i + 1 - nbuf, nbuf, buf, 0, &err);
+            nbuf = 0;
+        }
+    }
+    if (st == DTX_OK && nbuf > 0)
+        st = dtx_h5_seq_write(&seq, nframes - nbuf, nbuf, buf, 0, &err);
+    if (st == DTX_OK) {
+        const char **names = calloc((size_t)nframes, sizeof *names);
+        if (!names)
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+        for (int i = 0; names && i < nframes; i++) {
+            const char *s = strrchr(files[i], '/');
+            names[i] = s ? s + 1 : files[i];
+        }
+        if (st == DTX_OK)
+            st = dtx_h5_write_frame_names(&seq, names, nframes, &err);
+        free(names);
+    }
+    if (st == DTX_OK)
+        st = dtx_h5_seq_commit(&seq, &err);
+    dtx_h5_seq_close(&seq);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %d frames -> %s:%s (%s)\n", nframes, out, group,
+                f64 ? "float64" : "float32");
+    for (int i = 0; i < nframes; i++)
+        free(files[i]);
+    free(files);
+    free(buf);
+    dtx_mesh_free(&rest);
+    return finish_import(out, &f, created, st, &err);
+}
+
+static int cmd_import_markers(int argc, char **argv)
+{
+    char *pos[2];
+    const char *out = opt(argc, argv, "-o"), *name = opt(argc, argv, "--name"),
+               *base = opt(argc, argv, "--index-base"), *src = opt(argc, argv, "--source"),
+               *tgt = opt(argc, argv, "--target");
+    dtx_error err;
+    dtx_status st;
+    dtx_markers mk;
+    hid_t f = H5I_INVALID_HID;
+    int created = 0, ib;
+    char group[DTX_H5_PATH_MAX];
+    if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name || !base)
+        return usage("import markers needs one CSV file, --index-base 0|1, -o OUT.h5 and "
+                     "--name NAME");
+    if (strcmp(base, "0") == 0)
+        ib = 0;
+    else if (strcmp(base, "1") == 0)
+        ib = 1;
+    else
+        return usage("--index-base must be 0 or 1");
+    st = dtx_markers_read_csv(pos[0], ib, &mk, &err);
+    if (st != DTX_OK)
+        return fail(&err);
+    snprintf(group, sizeof group, "/markers/%s", name);
+    st = open_for_import(out, &f, &created, &err);
+    /* When both meshes are named and present, check the ranges now. */
+    if (st == DTX_OK && src && tgt && dtx_h5_path_exists(f, src) && dtx_h5_path_exists(f, tgt)) {
+        int32_t snv, snf, tnv, tnf;
+        st = dtx_h5_mesh_size(f, src, &snv, &snf, &err);
+        if (st == DTX_OK)
+            st = dtx_h5_mesh_size(f, tgt, &tnv, &tnf, &err);
+        if (st == DTX_OK)
+            st = dtx_markers_validate(&mk, snv, tnv, pos[0], &err);
+    }
+    if (st == DTX_OK)
+        st = dtx_h5_write_markers(f, group, &mk, src, tgt, &err);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %d markers -> %s:%s\n", (int)mk.n, out, group);
+    dtx_markers_free(&mk);
+    return finish_import(out, &f, created, st, &err);
+}
+
+static int cmd_export(int argc, char **argv)
+{
+    char *pos[3];
+    const char *dir = opt(argc, argv, "--obj-dir");
+    dtx_error err;
+    dtx_status st;
+    hid_t f = H5I_INVALID_HID;
+    dtx_h5_result res;
+    dtx_mesh m;
+    char tgt[DTX_H5_PATH_MAX + 16], path[8192];
+    double *X = NULL;
+    const char *base;
+    if (positionals(argc, argv, 2, pos, 3) != 2 || !dir)
+        return usage("export needs FILE.h5, a result path and --obj-dir DIR");
+    memset(&res, 0, sizeof res);
+    memset(&m, 0, sizeof m);
+    st = dtx_h5_open(pos[0], MPI_COMM_NULL, 0, &f, &err);
+    if (st == DTX_OK)
+        st = dtx_h5_result_open(f, pos[1], 0, &res, &err);
+    snprintf(tgt, sizeof tgt, "%s/target", pos[1]);
+    if (st == DTX_OK)
+        st = dtx_h5_read_mesh(f, tgt, &m, &err);
+    if (st == DTX_OK && mkdir(dir, 0777) != 0 && errno != EEXIST)
+        st = dtx_seterr(&err, DTX_EIO, "%s: cannot create directory: %s", dir, strerror(errno));
+    if (st == DTX_OK) {
+        X = dtx_alloc((size_t)m.nv, 3 * sizeof *X, 0);
+        if (!X)
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+    }
+    base = strrchr(pos[1], '/');
+    base = base ? base + 1 : pos[1];
+    for (int64_t i = 0; st == DTX_OK && i < res.nframes; i++) {
+        st = dtx_h5_result_read(&res, i, 1, X, NULL, &err);
+        snprintf(path, sizeof path, "%s/%s-%05lld.obj", dir, base, (long long)i + 1);
+        if (st == DTX_OK)
+            st = dtx_obj_write(path, X, m.nv, m.F, m.nf, "exported by dtx", &err);
+    }
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)res.nframes, dir);
+    free(X);
+    dtx_mesh_free(&m);
+    dtx_h5_result_close(&res);
+    dtx_h5_close(&f, NULL);
+    return st == DTX_OK ? 0 : fail(&err);
+}
+
+static int cmd_validate(int argc, char **argv)
+{
+    char *report = NULL;
+    dtx_error err;
+    dtx_status st;
+    if (argc != 3)
+        return usage("validate needs one file");
+    st = dtx_h5_validate(argv[2], &report, &err);
+    if (report)
+        fputs(report, stdout);
+    free(report);
+    return st == DTX_OK ? 0 : fail(&err);
+}
+
+static int cmd_run(int argc, char **argv)
+{
+    dtx_run_opts o;
+    dtx_error err;
+    dtx_status st;
+    char *pos[2];
+    int rank = 0, provided;
+    memset(&o, 0, sizeof o);
+    if (positionals(argc, argv, 2, pos, 2) != 1)
+        return usage("run needs one job file");
+    for (int i = 2; i < argc; i++)
+        if (strcmp(argv[i], "--quiet") == 0)
+            o.quiet = 1;
+    o.summary_path = opt(argc, argv, "--summary");
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    st = dtx_run_job(pos[0], MPI_COMM_WORLD, &o, &err);
+    if (st != DTX_OK && rank == 0)
+        fail(&err);
+    MPI_Finalize();
+    return st == DTX_OK ? 0 : 1;
+}
+
+int main(int argc, char **argv)
+{
+    if (argc < 2)
+        return usage(NULL);
+    dtx_h5_init();
+    if (strcmp(argv[1], "import") == 0 && argc >= 3) {
+        if (strcmp(argv[2], "mesh") == 0)
+            return cmd_import_mesh(argc, argv);
+        if (strcmp(argv[2], "sequence") == 0)
+            return cmd_import_sequence(argc, argv);
+        if (strcmp(argv[2], "markers") == 0)
+            return cmd_import_markers(argc, argv);
+        return usage("import what? mesh, sequence or markers");
+    }
+    if (strcmp(argv[1], "run") == 0)
+        return cmd_run(argc, argv);
+    if (strcmp(argv[1], "export") == 0)
+        return cmd_export(argc, argv);
+    if (strcmp(argv[1], "validate") == 0)
+        return cmd_validate(argc, argv);
+    if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
+        printf("dtx %s\n", DTX_VERSION);
+        return 0;
+    }
+    if (strcmp(argv[1], "help") == 0 || strcmp(argv[1], "--help") == 0) {
+        fputs(usage_text, stdout);
+        return 0;
+    }
+    return usage("unknown command");
+}

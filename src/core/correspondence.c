@@ -1,0 +1,712 @@
+/*
+ * correspondence.c: Sumner & Popovic 2004, section 5.  The source mesh is
+ * deformed toward the target under the user's markers, minimising
+ *     w_S E_S + w_I E_I + w_C E_C
+ * (E_S: adjacent triangles' transformations agree; E_I: transformations
+ * stay near the identity; E_C: vertices near their closest valid point on
+ * the target surface), first with w_C = 0, then with w_C raised phase by
+ * phase.  Unknowns are the source vertices and one fourth vertex per
+ * triangle; marker vertices are fixed at their target positions.  The three
+ * coordinates share one matrix, so each phase is one numeric factorisation
+ * (the symbolic analysis is done once) and one solve with 3 columns.
+ *
+ * Then triangles are paired: each deformed source triangle with the nearest
+ * compatible target triangle (centroids closer than a threshold, normals
+ * within max_angle), and each target triangle with the nearest compatible
+ * source triangle.  A target triangle with no compatible partner falls back
+ * to the nearest one regardless of the threshold, so every target triangle
+ * ends in at least one pair and the transfer system stays non-singular.
+ *
+ * All geometry is first mapped so that the target's bounding-box diagonal is
+ * 1 (and, by default, the source is aligned on the markers by a similarity
+ * transform), which makes the weights and thresholds scale-invariant.
+ */
+#include "dtx_core.h"
+
+#include <cholmod.h>
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DTX_PI 3.14159265358979323846
+
+void dtx_corr_params_default(dtx_corr_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->w_smooth = 1.0;
+    p->w_identity = 0.001;
+    p->n_closest = 4;
+    p->w_closest[0] = 1.0;
+    p->w_closest[1] = 500.0;
+    p->w_closest[2] = 1000.0;
+    p->w_closest[3] = 5000.0;
+    p->max_distance = 0.1;
+    p->max_angle_deg = 90.0;
+    p->align = 1;
+}
+
+void dtx_corr_free(dtx_corr *c)
+{
+    if (!c)
+        return;
+    free(c->pairs);
+    free(c->deformed_src);
+    memset(c, 0, sizeof *c);
+}
+
+/* ------------------------------------------------------------------ */
+/* Assembly of the quadratic energy over the free unknowns             */
+/* ------------------------------------------------------------------ */
+
+/* One term of the energy is w * sum_c || sum_p x_{var_p, c} a_p - t_c ||^2
+ * with 3-vector coefficients a_p and 3-vector targets t_c (c = x, y, z). */
+typedef struct {
+    int32_t n;          /* number of unknowns the term touches */
+    int32_t var[8];
+    double coef[8][3];
+} term;
+
+typedef struct {
+    int32_t nvar;        /* all unknowns (vertices + fourth vertices) */
+    int32_t nfree;
+    const int32_t *freeidx; /* nvar: index among free unknowns or -1 (fixed) */
+    const double *fixed;    /* nvar x 3: values of fixed unknowns */
+    cholmod_triplet *T;     /* lower triangle of the free-free matrix */
+    double *rhs;            /* nfree x 3, column-major (one column per coordinate) */
+} assembler;
+
+/* Adds a coefficient to the term, merging repeated unknowns. */
+static void term_add(term *t, int32_t var, const double *a, double sign)
+{
+    for (int32_t i = 0; i < t->n; i++)
+        if (t->var[i] == var) {
+            for (int k = 0; k < 3; k++)
+                t->coef[i][k] += sign * a[k];
+            return;
+        }
+    t->var[t->n] = var;
+    for (int k = 0; k < 3; k++)
+        t->coef[t->n][k] = sign * a[k];
+    t->n++;
+}
+
+/* target: 3 x 3 (row c = t_c) or NULL for zero targets. */
+static void assemble_term(assembler *as, const term *t, const double *target, double w)
+{
+    int32_t *ti = as->T->i, *tj = as->T->j;
+    double *tx = as->T->x;
+    for (int32_t p = 0; p < t->n; p++) {
+        int32_t fp = as->freeidx[t->var[p]];
+        if (fp < 0)
+            continue;
+        for (int32_t q = 0; q < t->n; q++) {
+            int32_t fq = as->freeidx[t->var[q]];
+            if (fq < 0 || fq > fp)
+                continue;
+            {
+                size_t k = as->T->nnz++;
+                ti[k] = fp;
+                tj[k] = fq;
+                tx[k] = w * (t->coef[p][0] * t->coef[q][0] + t->coef[p][1] * t->coef[q][1] +
+                             t->coef[p][2] * t->coef[q][2]);
+            }
+        }
+        for (int c = 0; c < 3; c++) {
+            /* r_c = t_c - sum over fixed q of a_q x_{q,c}; rhs_p += w a_p . r_c */
+            double r[3] = {0, 0, 0};
+            if (target)
+                for (int k = 0; k < 3; k++)
+                    r[k] = target[3 * c + k];
+            for (int32_t q = 0; q < t->n; q++)
+                if (as->freeidx[t->var[q]] < 0)
+                    for (int k = 0; k < 3; k++)
+                        r[k] -= t->coef[q][k] * as->fixed[3 * (size_t)t->var[q] + c];
+            as->rhs[(size_t)c * as->nfree + fp] +=
+                w * (t->coef[p][0] * r[0] + t->coef[p][1] * r[1] + t->coef[p][2] * r[2]);
+        }
+    }
+}
+
+/* The four (unknown, coefficient) pairs of triangle f's transformation:
+ * T_f[c, :] = sum_j x_{var_j, c} g_j (rows of Vinv, see dtx_frame_inverses). */
+static void triangle_term(const int32_t *F, int32_t nv, int32_t f, const double *Vinv, term *t,
+                          double sign)
+{
+    const double *r = Vinv + 9 * f;
+    double g0[3] = {-(r[0] + r[3] + r[6]), -(r[1] + r[4] + r[7]), -(r[2] + r[5] + r[8])};
+    term_add(t, F[3 * f], g0, sign);
+    term_add(t, F[3 * f + 1], r, sign);
+    term_add(t, F[3 * f + 2], r + 3, sign);
+    term_add(t, nv + f, r + 6, sign);
+}
+
+/* ------------------------------------------------------------------ */
+/* Triangle adjacency                                                  */
+/* ------------------------------------------------------------------ */
+
+typedef struct {
+    int32_t a, b, f;
+} edge_rec;
+
+static int cmp_edge(const void *x, const void *y)
+{
+    const edge_rec *p = x, *q = y;
+    if (p->a != q->a)
+        return p->a < q->a ? -1 : 1;
+    if (p->b != q->b)
+        return p->b < q->b ? -1 : 1;
+    return (p->f > q->f) - (p->f < q->f);
+}
+
+/* Pairs of faces sharing an edge (for a non-manifold edge, every pair of its
+ * faces).  Returns the count, the pairs in *out (2 per pair, allocated), or
+ * -1 on allocation failure. */
+static int64_t face_adjacency(const int32_t *F, int32_t nf, int32_t **out)
+{
+    edge_rec *e = dtx_alloc((size_t)nf * 3, sizeof *e, 0);
+    int32_t *pairs = NULL;
+    int64_t n = 0, cap = 0;
+    if (!e)
+        return -1;
+    for (int32_t f = 0; f < nf; f++)
+        for (int k = 0; k < 3; k++) {
+            int32_t a = F[3 * f + k], b = F[3 * f + (k + 1) % 3];
+            edge_rec *r = &e[3 * (size_t)f + k];
+            r->a = a < b ? a : b;
+            r->b = a < b ? b : a;
+            r->f = f;
+        }
+    qsort(e, (size_t)nf * 3, sizeof *e, cmp_edge);
+    for (int64_t i = 0; i < 3 * (int64_t)nf;) {
+        int64_t j = i + 1;
+        while (j < 3 * (int64_t)nf && e[j].a == e[i].a && e[j].b == e[i].b)
+            j++;
+        for (int64_t p = i; p < j; p++)
+            for (int64_t q = p + 1; q < j; q++) {
+                if (e[p].f == e[q].f)
+                    continue;
+                if (n == cap) {
+                    int64_t ncap = cap ? 2 * cap : 4 * (int64_t)nf + 16;
+                    int32_t *np = realloc(pairs, (size_t)ncap * 2 * sizeof *pairs);
+                    if (!np) {
+                        free(pairs);
+                        free(e);
+                        return -1;
+                    }
+                    pairs = np;
+                    cap = ncap;
+                }
+                pairs[2 * n] = e[p].f;
+                pairs[2 * n + 1] = e[q].f;
+                n++;
+            }
+        i = j;
+    }
+    free(e);
+    *out = pairs;
+    return n;
+}
+
+/* ------------------------------------------------------------------ */
+/* Closest valid points                                                */
+/* ------------------------------------------------------------------ */
+
+typedef struct {
+    const double *tnormals; /* target face normals */
+    const double *n;        /* query normal */
+    double cosmax;
+} normal_filter_ctx;
+
+static int normal_filter(const void *ctx, int32_t prim)
+{
+    const normal_filter_ctx *c = ctx;
+    const double *m = c->tnormals + 3 * prim;
+    return m[0] * c->n[0] + m[1] * c->n[1] + m[2] * c->n[2] > c->cosmax;
+}
+
+/* ------------------------------------------------------------------ */
+/* The deformation phases                                              */
+/* ------------------------------------------------------------------ */
+
+static dtx_status deform_source(const dtx_mesh *src, const double *S0, const double *Tn,
+                                const dtx_mesh *tgt, const dtx_bvh *tbvh,
+                                const double *tnormals, const dtx_markers *mk,
+                                const dtx_corr_params *prm, double *X, int *solves,
+                                dtx_error *err)
+{
+    const int32_t nv = src->nv, nf = src->nf, nvar = nv + nf;
+    const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
+    dtx_status st = DTX_OK;
+    cholmod_common cc;
+    cholmod_triplet *T = NULL;
+    cholmod_sparse *K = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense *B = NULL, *Xs = NULL;
+    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL;
+    double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
+           *cp = NULL;
+    unsigned char *valid = NULL;
+    int64_t nadj;
+    int32_t nfree = 0;
+    double eps_area;
+
+    cholmod_start(&cc);
+    cc.print = 0;
+    freeidx = dtx_alloc((size_t)nvar, sizeof *freeidx, 0);
+    fixed = dtx_alloc((size_t)nvar, 3 * sizeof *fixed, 1);
+    Vinv = dtx_alloc((size_t)nf, 9 * sizeof *Vinv, 0);
+    vn = dtx_alloc((size_t)nv, 3 * sizeof *vn, 0);
+    cp = dtx_alloc((size_t)nv, 3 * sizeof *cp, 0);
+    valid = dtx_alloc((size_t)nv, 1, 1);
+    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid)
+        goto nomem;
+
+    /* Unknowns: markers are fixed at their target positions. */
+    for (int32_t v = 0; v < nvar; v++)
+        freeidx[v] = 0;
+    for (int32_t m = 0; m < mk->n; m++) {
+        freeidx[mk->src[m]] = -1;
+        memcpy(fixed + 3 * (size_t)mk->src[m], Tn + 3 * (size_t)mk->tgt[m], 3 * sizeof(double));
+    }
+    for (int32_t v = 0; v < nvar; v++)
+        if (freeidx[v] == 0)
+            freeidx[v] = nfree++;
+
+    eps_area = 1e-14; /* geometry is normalised to a unit target diagonal */
+    dtx_frame_inverses(S0, src->F, nf, eps_area, Vinv);
+    nadj = face_adjacency(src->F, nf, &adj);
+    if (nadj < 0)
+        goto nomem;
+
+    /* Base matrix (E_S + E_I) and its right-hand side. */
+    {
+        size_t maxnz = (size_t)nadj * 36 + (size_t)nf * 10 + (size_t)nfree;
+        assembler as;
+        T = cholmod_allocate_triplet((size_t)nfree, (size_t)nfree, maxnz, -1, CHOLMOD_REAL, &cc);
+        rhs_base = dtx_alloc((size_t)nfree, 3 * sizeof *rhs_base, 1);
+        if (!T || !rhs_base)
+            goto nomem;
+        as.nvar = nvar;
+        as.nfree = nfree;
+        as.freeidx = freeidx;
+        as.fixed = fixed;
+        as.T = T;
+        as.rhs = rhs_base;
+        for (int64_t p = 0; p < nadj; p++) {
+            term t;
+            t.n = 0;
+            triangle_term(src->F, nv, adj[2 * p], Vinv, &t, 1.0);
+            triangle_term(src->F, nv, adj[2 * p + 1], Vinv, &t, -1.0);
+            assemble_term(&as, &t, NULL, prm->w_smooth);
+        }
+        for (int32_t f = 0; f < nf; f++) {
+            static const double I3[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+            term t;
+            t.n = 0;
+            triangle_term(src->F, nv, f, Vinv, &t, 1.0);
+            assemble_term(&as, &t, I3, prm->w_identity);
+        }
+        /* Explicit zero diagonal entries for vertex unknowns, so the pattern
+         * already holds the closest-point term's diagonal. */
+        for (int32_t v = 0; v < nv; v++)
+            if (freeidx[v] >= 0) {
+                size_t k = T->nnz++;
+                ((int32_t *)T->i)[k] = freeidx[v];
+                ((int32_t *)T->j)[k] = freeidx[v];
+                ((double *)T->x)[k] = 0.0;
+            }
+        K = cholmod_triplet_to_sparse(T, T->nnz, &cc);
+        cholmod_free_triplet(&T, &cc);
+        if (!K)
+            goto nomem;
+    }
+    /* Remember the base values and where each column's diagonal sits (the
+     * first entry of a sorted lower-triangular column). */
+    {
+        int32_t *Kp = K->p, *Ki = K->i;
+        kx_base = dtx_alloc((size_t)Kp[nfree], sizeof *kx_base, 0);
+        diagpos = dtx_alloc((size_t)nfree, sizeof *diagpos, 0);
+        if (!kx_base || !diagpos)
+            goto nomem;
+        memcpy(kx_base, K->x, (size_t)Kp[nfree] * sizeof *kx_base);
+        for (int32_t j = 0; j < nfree; j++) {
+            if (Kp[j] >= Kp[j + 1] || Ki[Kp[j]] != j) {
+                st = dtx_seterr(err, DTX_ESOLVE, "correspondence matrix lacks a diagonal entry");
+                goto fail;
+            }
+            diagpos[j] = Kp[j];
+        }
+    }
+    L = cholmod_analyze(K, &cc);
+    B = cholmod_zeros((size_t)nfree, 3, CHOLMOD_REAL, &cc);
+    if (!L || !B)
+        goto nomem;
+
+    for (int phase = 0; phase <= prm->n_closest; phase++) {
+        double wc = phase == 0 ? 0.0 : prm->w_closest[phase - 1];
+        double *Bx = B->x, *Kx = K->x;
+        memcpy(Kx, kx_base, (size_t)((int32_t *)K->p)[nfree] * sizeof *Kx);
+        memcpy(Bx, rhs_base, (size_t)nfree * 3 * sizeof *Bx);
+        if (wc > 0.0) {
+            /* Closest valid points of the current deformed source. */
+            dtx_vertex_normals(X, nv, src->F, nf, vn);
+#pragma omp parallel for schedule(static)
+            for (int32_t v = 0; v < nv; v++) {
+                normal_filter_ctx ctx;
+                valid[v] = 0;
+                if (freeidx[v] < 0)
+                    continue;
+                ctx.tnormals = tnormals;
+                ctx.n = vn + 3 * (size_t)v;
+                ctx.cosmax = cosmax;
+                if (dtx_bvh_closest(tbvh, X + 3 * (size_t)v, prm->max_distance, normal_filter,
+                                    &ctx, cp + 3 * (size_t)v, NULL) >= 0)
+                    valid[v] = 1;
+            }
+            for (int32_t v = 0; v < nv; v++) {
+                int32_t fv = freeidx[v];
+                if (!valid[v])
+                    continue;
+                Kx[diagpos[fv]] += wc;
+                for (int c = 0; c < 3; c++)
+                    Bx[(size_t)c * nfree + fv] += wc * cp[3 * (size_t)v + c];
+            }
+        }
+        if (!cholmod_factorize(K, L, &cc) || cc.status != CHOLMOD_OK) {
+            st = dtx_seterr(err, DTX_ESOLVE,
+                            "correspondence system could not be factored in phase %d (CHOLMOD "
+                            "status %d); are the markers spread over the whole mesh?",
+                            phase, cc.status);
+            goto fail;
+        }
+        cholmod_free_dense(&Xs, &cc);
+        Xs = cholmod_solve(CHOLMOD_A, L, B, &cc);
+        if (!Xs)
+            goto nomem;
+        (*solves)++;
+        for (int32_t v = 0; v < nv; v++)
+            for (int c = 0; c < 3; c++)
+                X[3 * (size_t)v + c] = freeidx[v] >= 0
+                                           ? ((double *)Xs->x)[(size_t)c * nfree + freeidx[v]]
+                                           : fixed[3 * (size_t)v + c];
+    }
+    goto fail; /* success: shared cleanup */
+
+nomem:
+    st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+fail:
+    (void)tgt;
+    cholmod_free_dense(&Xs, &cc);
+    cholmod_free_dense(&B, &cc);
+    cholmod_free_factor(&L, &cc);
+    cholmod_free_sparse(&K, &cc);
+    cholmod_free_triplet(&T, &cc);
+    cholmod_finish(&cc);
+    free(freeidx);
+    free(fixed);
+    free(Vinv);
+    free(vn);
+    free(cp);
+    free(valid);
+    free(adj);
+    free(rhs_base);
+    free(kx_base);
+    free(diagpos);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Triangle pairing                                                    */
+/* ------------------------------------------------------------------ */
+
+typedef struct {
+    const double *normals; /* normals of the indexed triangles */
+    const double *n;       /* query normal */
+    double cosmax;
+    const unsigned char *usable; /* may be NULL */
+} pair_filter_ctx;
+
+static int pair_filter(const void *ctx, int32_t prim)
+{
+    const pair_filter_ctx *c = ctx;
+    const double *m = c->normals + 3 * prim;
+    if (c->usable && !c->usable[prim])
+        return 0;
+    return m[0] * c->n[0] + m[1] * c->n[1] + m[2] * c->n[2] > c->cosmax;
+}
+
+static int usable_filter(const void *ctx, int32_t prim)
+{
+    const pair_filter_ctx *c = ctx;
+    return !c->usable || c->usable[prim];
+}
+
+static void centroids(const double *X, const int32_t *F, int32_t nf, double *C)
+{
+    for (int32_t f = 0; f < nf; f++)
+        for (int k = 0; k < 3; k++)
+            C[3 * f + k] =
+                (X[3 * F[3 * f] + k] + X[3 * F[3 * f + 1] + k] + X[3 * F[3 * f + 2] + k]) / 3.0;
+}
+
+static int cmp_pair(const void *x, const void *y)
+{
+    const int32_t *p = x, *q = y;
+    if (p[1] != q[1])
+        return p[1] < q[1] ? -1 : 1;
+    return (p[0] > q[0]) - (p[0] < q[0]);
+}
+
+static dtx_status pair_triangles(const dtx_mesh *src, const double *X, const dtx_mesh *tgt,
+                                 const double *Tn, const dtx_corr_params *prm, dtx_corr *out,
+                                 dtx_error *err)
+{
+    const int32_t nfs = src->nf, nft = tgt->nf;
+    const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
+    double *cs = NULL, *ct = NULL, *ns = NULL, *nt = NULL;
+    int32_t *bys = NULL, *byt = NULL, *pairs = NULL;
+    unsigned char *src_ok = NULL;
+    dtx_bvh *bs = NULL, *bt = NULL;
+    int32_t unmatched = 0;
+    int64_t np = 0;
+    dtx_status st = DTX_OK;
+
+    cs = dtx_alloc((size_t)nfs, 3 * sizeof *cs, 0);
+    ns = dtx_alloc((size_t)nfs, 3 * sizeof *ns, 0);
+    ct = dtx_alloc((size_t)nft, 3 * sizeof *ct, 0);
+    nt = dtx_alloc((size_t)nft, 3 * sizeof *nt, 0);
+    bys = dtx_alloc((size_t)nfs, sizeof *bys, 0);
+    byt = dtx_alloc((size_t)nft, sizeof *byt, 0);
+    src_ok = dtx_alloc((size_t)nfs, 1, 0);
+    pairs = dtx_alloc((size_t)nfs + (size_t)nft, 2 * sizeof *pairs, 0);
+    if (!cs || !ns || !ct || !nt || !bys || !byt || !src_ok || !pairs)
+        goto nomem;
+    centroids(X, src->F, nfs, cs);
+    centroids(Tn, tgt->F, nft, ct);
+    dtx_face_normals(X, src->F, nfs, ns);
+    dtx_face_normals(Tn, tgt->F, nft, nt);
+    /* Source triangles that collapsed (zero normal) carry no usable gradient. */
+    for (int32_t f = 0; f < nfs; f++)
+        src_ok[f] = ns[3 * f] != 0.0 || ns[3 * f + 1] != 0.0 || ns[3 * f + 2] != 0.0;
+    bs = dtx_bvh_build(cs, NULL, nfs);
+    bt = dtx_bvh_build(ct, NULL, nft);
+    if (!bs || !bt)
+        goto nomem;
+
+#pragma omp parallel for schedule(static)
+    for (int32_t f = 0; f < nfs; f++) {
+        pair_filter_ctx c = {nt, ns + 3 * (size_t)f, cosmax, NULL};
+        bys[f] = src_ok[f] ? dtx_bvh_closest(bt, cs + 3 * (size_t)f, prm->max_distance,
+                                             pair_filter, &c, NULL, NULL)
+                           : -1;
+    }
+#pragma omp parallel for schedule(static) reduction(+ : unmatched)
+    for (int32_t f = 0; f < nft; f++) {
+        pair_filter_ctx c = {ns, nt + 3 * (size_t)f, cosmax, src_ok};
+        int32_t s = dtx_bvh_closest(bs, ct + 3 * (size_t)f, prm->max_distance, pair_filter, &c,
+                                    NULL, NULL);
+        if (s < 0) {
+            int32_t s2;
+            unmatched++;
+            s2 = dtx_bvh_closest(bs, ct + 3 * (size_t)f, INFINITY, pair_filter, &c, NULL, NULL);
+            if (s2 < 0)
+                s2 = dtx_bvh_closest(bs, ct + 3 * (size_t)f, INFINITY, usable_filter, &c, NULL,
+                                     NULL);
+            s = s2;
+        }
+        byt[f] = s;
+    }
+    int pm = getenv("DTX_PAIRMODE") ? atoi(getenv("DTX_PAIRMODE")) : 0;
+    for (int32_t f = 0; f < nfs; f++)
+        if (bys[f] >= 0 && pm != 1) {
+            pairs[2 * np] = f;
+            pairs[2 * np + 1] = bys[f];
+            np++;
+        }
+    for (int32_t f = 0; f < nft; f++)
+        if (byt[f] >= 0 && (pm != 2 || np == 0 || 1)) {
+            if (pm == 2) { int found = 0; for (int32_t q = 0; q < nfs; q++) if (bys[q] == f) { found = 1; break; } if (found) continue; }
+            pairs[2 * np] = byt[f];
+            pairs[2 * np + 1] = f;
+            np++;
+        }
+    if (getenv("DTX_RADIUS")) {
+        double rad = atof(getenv("DTX_RADIUS"));
+        int32_t buf[4096];
+        int64_t cap = np + 64 * (int64_t)nft;
+        int32_t *np2 = realloc(pairs, (size_t)cap * 2 * sizeof *pairs);
+        pairs = np2;
+        for (int32_t f = 0; f < nft; f++) {
+            pair_filter_ctx c = {ns, nt + 3 * (size_t)f, cosmax, src_ok};
+            int64_t k = dtx_bvh_within(bs, ct + 3 * (size_t)f, rad, pair_filter, &c, buf, 4096);
+            if (k > 4096) k = 4096;
+            for (int64_t i = 0; i < k && np < cap; i++) { pairs[2*np] = buf[i]; pairs[2*np+1] = f; np++; }
+        }
+    }
+    qsort(pairs, (size_t)np, 2 * sizeof *pairs, cmp_pair);
+    {
+        int64_t w = 0;
+        for (int64_t i = 0; i < np; i++)
+            if (w == 0 || pairs[2 * i] != pairs[2 * (w - 1)] ||
+                pairs[2 * i + 1] != pairs[2 * (w - 1) + 1]) {
+                pairs[2 * w] = pairs[2 * i];
+                pairs[2 * w + 1] = pairs[2 * i + 1];
+                w++;
+            }
+        np = w;
+    }
+    for (int32_t f = 0; f < nft; f++)
+        if (byt[f] < 0) {
+            st = dtx_seterr(err, DTX_EMESH,
+                            "target triangle %d has no source triangle to pair with (is every "
+                            "source triangle degenerate?)",
+                            (int)f);
+            goto fail;
+        }
+    out->pairs = pairs;
+    out->npairs = np;
+    out->unmatched_tgt = unmatched;
+    pairs = NULL;
+    goto fail;
+
+nomem:
+    st = dtx_seterr(err, DTX_ENOMEM, "out of memory while pairing triangles");
+fail:
+    dtx_bvh_free(&bs);
+    dtx_bvh_free(&bt);
+    free(cs);
+    free(ct);
+    free(ns);
+    free(nt);
+    free(bys);
+    free(byt);
+    free(src_ok);
+    free(pairs);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Entry point                                                         */
+/* ------------------------------------------------------------------ */
+
+dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
+                               const dtx_markers *markers, const dtx_corr_params *prm,
+                               dtx_corr *out, dtx_error *err)
+{
+    dtx_status st;
+    double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL, *P = NULL, *Q = NULL;
+    double center[3] = {0, 0, 0}, diag, lo[3], hi[3];
+    dtx_bvh *tbvh = NULL;
+    memset(out, 0, sizeof *out);
+
+    if (prm->n_closest < 0 || prm->n_closest > 16)
+        return dtx_seterr(err, DTX_EINVAL, "n_closest must be in [0, 16], got %d",
+                          prm->n_closest);
+    st = dtx_markers_validate(markers, src->nv, tgt->nv, "markers", err);
+    if (st != DTX_OK)
+        return st;
+
+    S0 = dtx_alloc((size_t)src->nv, 3 * sizeof *S0, 0);
+    X = dtx_alloc((size_t)src->nv, 3 * sizeof *X, 0);
+    Tn = dtx_alloc((size_t)tgt->nv, 3 * sizeof *Tn, 0);
+    tnormals = dtx_alloc((size_t)tgt->nf, 3 * sizeof *tnormals, 0);
+    if (!S0 || !X || !Tn || !tnormals) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+        goto fail;
+    }
+    memcpy(S0, src->V, (size_t)src->nv * 3 * sizeof *S0);
+
+    /* Similarity pre-alignment on the markers (needs 3 non-collinear ones). */
+    if (prm->align && markers->n >= 3) {
+        double R[9], t[3], s;
+        P = dtx_alloc((size_t)markers->n, 3 * sizeof *P, 0);
+        Q = dtx_alloc((size_t)markers->n, 3 * sizeof *Q, 0);
+        if (!P || !Q) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+            goto fail;
+        }
+        for (int32_t m = 0; m < markers->n; m++) {
+            memcpy(P + 3 * m, src->V + 3 * (size_t)markers->src[m], 3 * sizeof *P);
+            memcpy(Q + 3 * m, tgt->V + 3 * (size_t)markers->tgt[m], 3 * sizeof *Q);
+        }
+        if (dtx_similarity_fit(P, Q, markers->n, R, t, &s, NULL) == DTX_OK && s > 0.0)
+            dtx_similarity_apply(R, t, s, S0, src->nv);
+    }
+
+    /* Normalise: target bounding box centred at the origin, unit diagonal. */
+    for (int k = 0; k < 3; k++) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+    for (int32_t i = 0; i < tgt->nv; i++)
+        for (int k = 0; k < 3; k++) {
+            double x = tgt->V[3 * (size_t)i + k];
+            lo[k] = x < lo[k] ? x : lo[k];
+            hi[k] = x > hi[k] ? x : hi[k];
+        }
+    for (int k = 0; k < 3; k++)
+        center[k] = 0.5 * (lo[k] + hi[k]);
+    diag = dtx_bbox_diagonal(tgt->V, tgt->nv);
+    if (!(diag > 0.0)) {
+        st = dtx_seterr(err, DTX_EMESH, "target mesh has zero extent");
+        goto fail;
+    }
+    for (int32_t i = 0; i < tgt->nv; i++)
+        for (int k = 0; k < 3; k++)
+            Tn[3 * (size_t)i + k] = (tgt->V[3 * (size_t)i + k] - center[k]) / diag;
+    for (int32_t i = 0; i < src->nv; i++)
+        for (int k = 0; k < 3; k++)
+            S0[3 * (size_t)i + k] = (S0[3 * (size_t)i + k] - center[k]) / diag;
+    memcpy(X, S0, (size_t)src->nv * 3 * sizeof *X);
+
+    dtx_face_normals(Tn, tgt->F, tgt->nf, tnormals);
+    tbvh = dtx_bvh_build(Tn, tgt->F, tgt->nf);
+    if (!tbvh) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
+        goto fail;
+    }
+    st = deform_source(src, S0, Tn, tgt, tbvh, tnormals, markers, prm, X, &out->solves, err);
+    if (st != DTX_OK)
+        goto fail;
+    st = pair_triangles(src, X, tgt, Tn, prm, out, err);
+    if (st != DTX_OK)
+        goto fail;
+
+    /* Fit quality: RMS distance of the deformed source to the target surface. */
+    {
+        /* Per-vertex distances first, then a serial sum: the figure must not
+         * depend on the thread count. */
+        double sum = 0.0;
+        double *d2v = dtx_alloc((size_t)src->nv, sizeof *d2v, 1);
+        if (!d2v) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+            goto fail;
+        }
+#pragma omp parallel for schedule(static)
+        for (int32_t v = 0; v < src->nv; v++)
+            dtx_bvh_closest(tbvh, X + 3 * (size_t)v, INFINITY, NULL, NULL, NULL, d2v + v);
+        for (int32_t v = 0; v < src->nv; v++)
+            sum += d2v[v];
+        free(d2v);
+        out->fit_rms = sqrt(sum / src->nv);
+    }
+    /* Back to the target's coordinates. */
+    for (int32_t i = 0; i < src->nv; i++)
+        for (int k = 0; k < 3; k++)
+            X[3 * (size_t)i + k] = X[3 * (size_t)i + k] * diag + center[k];
+    out->deformed_src = X;
+    out->nv_src = src->nv;
+    X = NULL;
+
+fail:
+    if (st != DTX_OK)
+        dtx_corr_free(out);
+    dtx_bvh_free(&tbvh);
+    free(S0);
+    free(Tn);
+    free(X);
+    free(tnormals);
+    free(P);
+    free(Q);
+    return st;
+}

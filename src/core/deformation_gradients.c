@@ -1,0 +1,166 @@
+/*
+ * deformation_gradients.c: per-triangle affine maps between a rest mesh and a
+ * deformed one (Sumner & Popovic 2004, section 3), and the equivalent
+ * vertex-only gradient operator (Botsch et al. 2006).
+ */
+#include "dtx_core.h"
+
+#include <math.h>
+#include <string.h>
+
+static void sub3(const double *a, const double *b, double *r)
+{
+    r[0] = a[0] - b[0];
+    r[1] = a[1] - b[1];
+    r[2] = a[2] - b[2];
+}
+
+static void cross3(const double *a, const double *b, double *r)
+{
+    r[0] = a[1] * b[2] - a[2] * b[1];
+    r[1] = a[2] * b[0] - a[0] * b[2];
+    r[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static double dot3(const double *a, const double *b)
+{
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+}
+
+/* Inverse of the 3x3 matrix whose COLUMNS are c0, c1, c2, written row-major
+ * into inv.  Returns the determinant (0 leaves inv untouched). */
+static double inverse_of_columns(const double *c0, const double *c1, const double *c2,
+                                 double *inv)
+{
+    /* For M = [c0 c1 c2], M^-1 has rows (c1 x c2, c2 x c0, c0 x c1) / det. */
+    double r0[3], r1[3], r2[3], det;
+    cross3(c1, c2, r0);
+    cross3(c2, c0, r1);
+    cross3(c0, c1, r2);
+    det = dot3(c0, r0);
+    if (det == 0.0)
+        return 0.0;
+    for (int k = 0; k < 3; k++) {
+        inv[k] = r0[k] / det;
+        inv[3 + k] = r1[k] / det;
+        inv[6 + k] = r2[k] / det;
+    }
+    return det;
+}
+
+/* Tikhonov-regularised pseudo-inverse (M^T M + delta I)^-1 M^T of the
+ * matrix with columns c0, c1, c2, for triangles too thin to invert. */
+static void regularised_inverse(const double *c0, const double *c1, const double *c2,
+                                double delta, double *inv)
+{
+    const double *c[3] = {c0, c1, c2};
+    double A[9], Ainv[9], cols[3][3];
+    for (int i = 0; i < 3; i++)
+        for (int j = 0; j < 3; j++)
+            A[3 * i + j] = dot3(c[i], c[j]) + (i == j ? delta : 0.0);
+    /* A is symmetric positive definite; invert it through its columns. */
+    for (int j = 0; j < 3; j++)
+        for (int i = 0; i < 3; i++)
+            cols[j][i] = A[3 * i + j];
+    if (inverse_of_columns(cols[0], cols[1], cols[2], Ainv) == 0.0) {
+        memset(inv, 0, 9 * sizeof *inv);
+        return;
+    }
+    /* inv = Ainv * M^T, where M^T has rows c0, c1, c2. */
+    for (int i = 0; i < 3; i++)
+        for (int k = 0; k < 3; k++)
+            inv[3 * i + k] =
+                Ainv[3 * i] * c0[k] + Ainv[3 * i + 1] * c1[k] + Ainv[3 * i + 2] * c2[k];
+}
+
+/* The scaled normal n / sqrt(|n|) of Sumner's fourth vertex (0 for |n| = 0). */
+static void fourth_edge(const double *e1, const double *e2, double *e3)
+{
+    double n[3], len;
+    cross3(e1, e2, n);
+    len = sqrt(dot3(n, n));
+    if (len > 0.0) {
+        double s = 1.0 / sqrt(len);
+        e3[0] = n[0] * s;
+        e3[1] = n[1] * s;
+        e3[2] = n[2] * s;
+    } else {
+        e3[0] = e3[1] = e3[2] = 0.0;
+    }
+}
+
+int32_t dtx_frame_inverses(const double *V, const int32_t *F, int32_t nf, double eps_area,
+                           double *Vinv)
+{
+    int32_t degenerate = 0;
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *t = F + 3 * f;
+        double e1[3], e2[3], e3[3], n[3], area, scale2;
+        double *inv = Vinv + 9 * f;
+        sub3(V + 3 * t[1], V + 3 * t[0], e1);
+        sub3(V + 3 * t[2], V + 3 * t[0], e2);
+        cross3(e1, e2, n);
+        area = 0.5 * sqrt(dot3(n, n));
+        fourth_edge(e1, e2, e3);
+        if (area > eps_area && inverse_of_columns(e1, e2, e3, inv) != 0.0)
+            continue;
+        /* Zero-area or needle triangle: a regularised pseudo-inverse keeps
+         * the gradient finite and meaningful along the edges that exist. */
+        degenerate++;
+        scale2 = dot3(e1, e1) > dot3(e2, e2) ? dot3(e1, e1) : dot3(e2, e2);
+        if (scale2 > 0.0)
+            regularised_inverse(e1, e2, e3, 1e-6 * scale2, inv);
+        else
+            memset(inv, 0, 9 * sizeof *inv);
+    }
+    return degenerate;
+}
+
+void dtx_deformation_gradients(const double *Vinv, const int32_t *F, int32_t nf, const double *X,
+                               double *S)
+{
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *t = F + 3 * f;
+        const double *inv = Vinv + 9 * f;
+        double e1[3], e2[3], e3[3];
+        double *s = S + 9 * f;
+        sub3(X + 3 * t[1], X + 3 * t[0], e1);
+        sub3(X + 3 * t[2], X + 3 * t[0], e2);
+        fourth_edge(e1, e2, e3);
+        /* S = [e1 e2 e3] * inv: row r of S is sum_k e_k[r] * inv row k. */
+        for (int r = 0; r < 3; r++)
+            for (int c = 0; c < 3; c++)
+                s[3 * r + c] = e1[r] * inv[c] + e2[r] * inv[3 + c] + e3[r] * inv[6 + c];
+    }
+}
+
+int32_t dtx_gradient_operator(const double *V, const int32_t *F, int32_t nf, double eps_area,
+                              double *G)
+{
+    int32_t degenerate = 0;
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *t = F + 3 * f;
+        double e1[3], e2[3], n[3], a, b, c, det;
+        double *g = G + 9 * f;
+        sub3(V + 3 * t[1], V + 3 * t[0], e1);
+        sub3(V + 3 * t[2], V + 3 * t[0], e2);
+        cross3(e1, e2, n);
+        det = dot3(n, n); /* = a c - b^2, the Gram determinant */
+        if (0.5 * sqrt(det) <= eps_area || det == 0.0) {
+            memset(g, 0, 9 * sizeof *g);
+            degenerate++;
+            continue;
+        }
+        a = dot3(e1, e1);
+        b = dot3(e1, e2);
+        c = dot3(e2, e2);
+        for (int k = 0; k < 3; k++) {
+            double r1 = (c * e1[k] - b * e2[k]) / det; /* row 1 of pinv(E) */
+            double r2 = (a * e2[k] - b * e1[k]) / det; /* row 2 of pinv(E) */
+            g[k] = -(r1 + r2);
+            g[3 + k] = r1;
+            g[6 + k] = r2;
+        }
+    }
+    return degenerate;
+}

@@ -1,0 +1,177 @@
+/*
+ * dtx_core.h: the numeric core of dtx.  Pure functions on flat arrays; no
+ * MPI, no HDF5, no files, no printing.  Sparse factorisations use CHOLMOD;
+ * loops over frames use OpenMP.
+ *
+ * Conventions: V, X are n x 3 row-major doubles; F is nf x 3 int32, 0-based;
+ * 3x3 matrices are 9 doubles, row-major.  Outputs are caller-allocated unless
+ * a function says it allocates.  Functions are thread-safe on distinct
+ * arguments unless stated otherwise.
+ */
+#ifndef DTX_CORE_H
+#define DTX_CORE_H
+
+#include "markers.h"
+#include "mesh.h"
+#include "status.h"
+
+#include <stdint.h>
+
+/* ------------------------------------------------------------------ */
+/* Deformation gradients (deformation_gradients.c)                     */
+/* ------------------------------------------------------------------ */
+
+/* Per-triangle inverse of the rest frame V = [v2-v1, v3-v1, v4-v1] with the
+ * fourth vertex v4 = v1 + n / sqrt(|n|), n = (v2-v1) x (v3-v1) (Sumner &
+ * Popovic 2004, eq. 1).  Vinv: nf x 9.  A triangle whose area is below
+ * eps_area (absolute, >= 0) is regularised: its normal is replaced by the
+ * mean normal of a tiny equilateral lift so the inverse stays finite; the
+ * number of such triangles is returned (0 for a clean mesh). */
+int32_t dtx_frame_inverses(const double *V, const int32_t *F, int32_t nf, double eps_area,
+                           double *Vinv);
+
+/* Deformation gradients S_i = Vtilde_i * Vinv_i of the deformed positions X
+ * (nv x 3) for every triangle; S: nf x 9.  The deformed fourth vertex is
+ * built from X the same way.  A deformed triangle of zero area gives a
+ * gradient whose normal column is zero (still finite). */
+void dtx_deformation_gradients(const double *Vinv, const int32_t *F, int32_t nf, const double *X,
+                               double *S);
+
+/* Vertex-only gradient operator (Botsch et al. 2006): for each triangle the
+ * three row vectors g1, g2, g3 (G: nf x 9, g_j at G[9f + 3j]) with
+ * Xtilde-edge-matrix * pinv(E) = sum_j x_j g_j^T, pinv(E) = (E^T E)^-1 E^T,
+ * E = [v2-v1, v3-v1].  Degenerate triangles (area < eps_area) get g = 0 and
+ * are counted in the return value. */
+int32_t dtx_gradient_operator(const double *V, const int32_t *F, int32_t nf, double eps_area,
+                              double *G);
+
+/* ------------------------------------------------------------------ */
+/* Spatial index (bvh.c)                                               */
+/* ------------------------------------------------------------------ */
+
+typedef struct dtx_bvh dtx_bvh;
+
+/* Builds a bounding-volume hierarchy over the triangles (F, nf) of the
+ * vertex positions X (nv x 3; kept by pointer, must outlive the tree), or,
+ * with F == NULL, over the nf points X.  Returns NULL on allocation failure.
+ * Queries are thread-safe. */
+dtx_bvh *dtx_bvh_build(const double *X, const int32_t *F, int32_t nf);
+void dtx_bvh_free(dtx_bvh **bvh);
+
+/* Primitive filter for queries: returns non-zero when primitive `prim` may
+ * be returned.  May be NULL (every primitive allowed). */
+typedef int (*dtx_bvh_filter)(const void *ctx, int32_t prim);
+
+/* Closest allowed primitive to p within max_dist (use INFINITY for no
+ * limit).  Returns its index (or -1 if none) and the closest point (closest,
+ * may be NULL) and squared distance (d2, may be NULL). */
+int32_t dtx_bvh_closest(const dtx_bvh *bvh, const double p[3], double max_dist,
+                        dtx_bvh_filter filter, const void *ctx, double closest[3], double *d2);
+
+/* Every allowed primitive within `radius` of p: writes up to cap indices
+ * (in no particular order) to out and returns how many there are (which
+ * may exceed cap). */
+int64_t dtx_bvh_within(const dtx_bvh *bvh, const double p[3], double radius,
+                       dtx_bvh_filter filter, const void *ctx, int32_t *out, int64_t cap);
+
+/* Closest point to p on triangle (a, b, c); returns the squared distance. */
+double dtx_closest_point_triangle(const double p[3], const double a[3], const double b[3],
+                                  const double c[3], double out[3]);
+
+/* ------------------------------------------------------------------ */
+/* Alignment (align.c)                                                 */
+/* ------------------------------------------------------------------ */
+
+/* Similarity transform x -> s R x + t that best maps the n points P onto Q
+ * in least squares (Umeyama 1991; proper rotation).  R: 9, t: 3, s: 1. */
+dtx_status dtx_similarity_fit(const double *P, const double *Q, int32_t n, double *R,
+                              double *t, double *s, dtx_error *err);
+
+/* Applies x -> s R x + t to n points in place. */
+void dtx_similarity_apply(const double *R, const double *t, double s, double *X, int32_t n);
+
+/* ------------------------------------------------------------------ */
+/* Sumner-Popovic correspondence (correspondence.c)                    */
+/* ------------------------------------------------------------------ */
+
+typedef struct {
+    double w_smooth;      /* E_S weight (paper: 1.0) */
+    double w_identity;    /* E_I weight (paper: 0.001) */
+    int n_closest;        /* number of closest-point phases after the first solve */
+    double w_closest[16]; /* E_C weight of each phase */
+    double max_distance;  /* closest-point and pairing threshold, fraction of the
+                             target bounding-box diagonal */
+    double max_angle_deg; /* normals must differ by less than this (paper: 90) */
+    int align;            /* 1: similarity pre-alignment of the source on the markers */
+} dtx_corr_params;
+
+/* The paper's defaults. */
+void dtx_corr_params_default(dtx_corr_params *p);
+
+typedef struct {
+    int64_t npairs;
+    int32_t *pairs;        /* npairs x 2: (source triangle, target triangle), owned;
+                              sorted by target triangle then source triangle */
+    double *deformed_src;  /* nv_s x 3: the source deformed onto the target, owned */
+    int32_t nv_src;
+    int32_t unmatched_tgt; /* target triangles that needed a fallback pairing */
+    int solves;            /* linear solves done */
+    double fit_rms;        /* RMS distance (fraction of target diagonal) of the
+                              deformed source vertices to the target surface */
+} dtx_corr;
+
+/* Deforms the source onto the target (markers, smoothness, identity and
+ * closest valid point terms with increasing weight), then pairs triangles
+ * by centroid distance and normals in both directions.  Every target
+ * triangle ends in at least one pair.  Uses OpenMP for closest-point
+ * queries; deterministic for any thread count. */
+dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
+                               const dtx_markers *markers, const dtx_corr_params *params,
+                               dtx_corr *out, dtx_error *err);
+void dtx_corr_free(dtx_corr *c);
+
+/* ------------------------------------------------------------------ */
+/* Sumner-Popovic transfer (transfer_sp04.c)                           */
+/* ------------------------------------------------------------------ */
+
+typedef enum {
+    DTX_ANCHOR_FIXED = 0,  /* result centroid = target rest centroid */
+    DTX_ANCHOR_FOLLOW = 1, /* result centroid = rest centroid + scaled source
+                              centroid displacement */
+    DTX_ANCHOR_PINS = 2    /* pinned vertices only */
+} dtx_anchor;
+
+typedef struct dtx_sp04_plan dtx_sp04_plan;
+
+/* Precompute: builds the target's normal equations sum_pairs G_t^T G_t,
+ * removes the anchor/pinned vertices and factors it once (CHOLMOD,
+ * supernodal).  pins: npins vertex indices with positions pin_pos
+ * (npins x 3); used when anchor == DTX_ANCHOR_PINS (npins >= 1) and also
+ * honoured with the other anchors (then the centroid is not adjusted).
+ * Fails with DTX_EMESH if the target has more than one connected component
+ * (the message points at the multicomponent method). */
+dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const int32_t *pairs,
+                                int64_t npairs, dtx_anchor anchor, const int32_t *pins,
+                                const double *pin_pos, int32_t npins, dtx_sp04_plan **plan,
+                                dtx_error *err);
+void dtx_sp04_plan_free(dtx_sp04_plan **plan);
+
+/* Apply: transfers nframes source frames Xs (nframes x nv_s x 3) to
+ * target frames Xt (nframes x nv_t x 3).  residual (nframes, may be NULL)
+ * gets per frame the RMS over pairs of the Frobenius norm of S_s - T_t in
+ * the target triangle's plane (the paper's energy with the optimal fourth
+ * vertex).  Frames are solved together as multiple right-hand sides;
+ * OpenMP threads split the per-frame work.  Results do not depend on the
+ * thread count or on how frames are grouped into calls.  Not thread-safe on
+ * one plan (it owns the solve workspace). */
+dtx_status dtx_sp04_apply(dtx_sp04_plan *plan, int64_t nframes, const double *Xs, double *Xt,
+                          double *residual, dtx_error *err);
+
+/* Sizes of the plan, for callers that allocate buffers. */
+int32_t dtx_sp04_plan_nv_src(const dtx_sp04_plan *plan);
+int32_t dtx_sp04_plan_nv_tgt(const dtx_sp04_plan *plan);
+
+/* Seconds the factorisation took (analyze + factorize). */
+double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);
+
+#endif /* DTX_CORE_H */

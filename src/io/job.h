@@ -1,0 +1,138 @@
+/*
+ * job.h: dtx job files (JSON), parsed and checked against
+ * schemas/job.schema.json.
+ *
+ * A job names its inputs by file + HDF5 path.  Relative file names are
+ * resolved against the directory of the job file; the parsed job holds
+ * resolved paths.  Example (jobs/cat-lion.json):
+ *
+ *   {
+ *     "dtx_job": 1,
+ *     "method": "sp04",
+ *     "source": { "file": "data/cat-lion.h5", "mesh": "/meshes/cat",
+ *                 "sequences": ["/sequences/cat-poses"] },
+ *     "targets": [ { "name": "lion", "file": "data/cat-lion.h5",
+ *                    "mesh": "/meshes/lion",
+ *                    "markers": { "file": "data/cat-lion.h5",
+ *                                 "path": "/markers/cat-lion" } } ],
+ *     "output": { "file": "out/cat-lion.h5", "dtype": "float32" },
+ *     "sp04": { "w_smooth": 1.0, "w_identity": 0.001,
+ *               "w_closest": [1, 500, 1000, 5000] }
+ *   }
+ */
+#ifndef DTX_JOB_H
+#define DTX_JOB_H
+
+#include "status.h"
+
+#include <stdint.h>
+
+#define DTX_JOB_VERSION 1
+
+typedef enum { DTX_DTYPE_FLOAT32 = 0, DTX_DTYPE_FLOAT64 = 1 } dtx_dtype;
+
+typedef enum {
+    DTX_METHOD_SP04 = 0,
+    DTX_METHOD_MULTICOMPONENT,
+    DTX_METHOD_SPRINGS,
+    DTX_METHOD_BIHARMONIC
+} dtx_method;
+
+/* How the global translation of each result frame is chosen. */
+typedef enum {
+    DTX_TRANSLATION_FIXED = 0, /* result centroid = target rest centroid (default) */
+    DTX_TRANSLATION_FOLLOW,    /* centroid moves with the source centroid, scaled */
+    DTX_TRANSLATION_PINS       /* only the pinned vertices fix it (needs pins) */
+} dtx_translation;
+
+typedef struct {
+    int32_t vertex;  /* 0-based target vertex */
+    double pos[3];   /* position it is held at in every frame */
+} dtx_pin;
+
+/* Markers: either a CSV file (csv != NULL, with its index base) or an HDF5
+ * marker set (file + path). */
+typedef struct {
+    char *csv;      /* resolved path or NULL */
+    int index_base; /* 0 or 1, required with csv */
+    char *file;     /* resolved path or NULL */
+    char *path;     /* HDF5 group, with file */
+} dtx_job_markers;
+
+typedef struct {
+    char *name;  /* result group name; defaults to the mesh group's base name */
+    char *file;  /* resolved path of the HDF5 file holding the mesh */
+    char *mesh;  /* HDF5 path of the rest mesh group */
+    dtx_job_markers markers;
+    dtx_translation translation;
+    int32_t npins;
+    dtx_pin *pins;
+} dtx_job_target;
+
+/* sp04 parameters (defaults in brackets). */
+typedef struct {
+    double w_smooth;       /* [1.0] correspondence smoothness weight */
+    double w_identity;     /* [0.001] correspondence identity weight */
+    int n_closest;         /* number of closest-point iterations */
+    double w_closest[16];  /* [1, 500, 1000, 5000] closest-point weights */
+    double max_distance;   /* [0.1] closest-point / pairing threshold, as a
+                              fraction of the target bounding-box diagonal */
+    double max_angle_deg;  /* [90] normals must differ by less than this */
+} dtx_sp04_params;
+
+typedef struct {
+    int version;          /* dtx_job */
+    dtx_method method;
+    char *text;           /* the job file's text, verbatim (for provenance) */
+    char *job_path;       /* the job file's path as given */
+
+    char *source_file;    /* resolved */
+    char *source_mesh;    /* HDF5 path */
+    int32_t nsequences;
+    char **sequences;     /* HDF5 paths */
+
+    int32_t ntargets;
+    dtx_job_target *targets;
+
+    char *output_file;    /* resolved */
+    dtx_dtype output_dtype;
+    char *export_obj_dir; /* resolved or NULL: also write OBJ frames here */
+    int32_t block_frames; /* [64] frames per block (read/solve/write unit) */
+
+    dtx_sp04_params sp04;
+} dtx_job;
+
+/* Reads, parses and validates the job at path.  On failure err->msg names
+ * the file, the location in the document (a JSON pointer such as
+ * /targets/0/markers/index_base) and what was expected; *job is left empty.
+ * Checks done here: JSON syntax (with line number), the schema (unknown
+ * keys, types, required fields, enums, ranges), and cross-field rules (csv
+ * markers need index_base; pins need translation "pins" or "fixed"; output
+ * file must differ from every input file; input files must exist). */
+dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err);
+
+/* The same from a string already in memory; base_dir resolves relative
+ * paths; name is used in messages.  Does not check that files exist when
+ * check_files is 0 (used by the fuzzer and unit tests). */
+dtx_status dtx_job_parse(const char *text, size_t len, const char *name, const char *base_dir,
+                         int check_files, dtx_job *job, dtx_error *err);
+
+/* Frees everything the job owns and zeroes it.  Accepts NULL. */
+void dtx_job_free(dtx_job *job);
+
+/* Canonical parameter text of the job's method (JSON), for provenance and
+ * for cache keys.  Caller frees. */
+char *dtx_job_params_json(const dtx_job *job);
+
+/* The job schema, schemas/job.schema.json, as built into the binary
+ * (job_schema_text.c) so that dtx works without the source tree: a
+ * NULL-terminated list of pieces whose concatenation is the file byte for
+ * byte (one piece per line, because C limits the length of one string
+ * literal).  A unit test keeps the two identical. */
+extern const char *const dtx_job_schema_lines[];
+
+/* The whole embedded schema text, NUL-terminated and newly allocated
+ * (caller frees); NULL when out of memory.  Thread-safe. */
+char *dtx_job_schema_text(void);
+
+#endif /* DTX_JOB_H */
