@@ -63,16 +63,18 @@ static int check_passed_ = 0, check_failed_ = 0;
         }                                                                               \
     } while (0)
 
-/* A status-returning call that must succeed; prints the message if not. */
+/* A status-returning call that must succeed; prints the message if not.
+ * errp points at the dtx_error the call fills (never NULL). */
 #define CHECK_OK(call, errp)                                                            \
     do {                                                                                \
+        const dtx_error *e_ = (errp);                                                   \
         dtx_status s_ = (call);                                                         \
         if (s_ == DTX_OK) {                                                             \
             check_passed_++;                                                            \
         } else {                                                                        \
             check_failed_++;                                                            \
             fprintf(stderr, "%s:%d: %s returned %s: %s\n", __FILE__, __LINE__, #call,   \
-                    dtx_status_name(s_), (errp) ? (errp)->msg : "");                    \
+                    dtx_status_name(s_), e_->msg);                                      \
         }                                                                               \
     } while (0)
 

@@ -171,6 +171,11 @@ dtx_status dtx_sp04_apply(dtx_sp04_plan *plan, int64_t nframes, const double *Xs
 int32_t dtx_sp04_plan_nv_src(const dtx_sp04_plan *plan);
 int32_t dtx_sp04_plan_nv_tgt(const dtx_sp04_plan *plan);
 
+/* Benchmark hook: seconds per frame of a bare CHOLMOD back-substitution
+ * (3 right-hand sides, cholmod_solve2 with reused workspace) on the plan's
+ * factor, averaged over nrep solves.  For scripts/bench.sh. */
+double dtx_sp04_plan_bare_solve_seconds(dtx_sp04_plan *plan, int nrep);
+
 /* Seconds the factorisation took (analyze + factorize). */
 double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);
 

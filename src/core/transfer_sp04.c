@@ -40,7 +40,6 @@ struct dtx_sp04_plan {
     double *Vinv_s; /* nf_s x 9 */
     double *G_t;    /* nf_t x 9 */
     double *n_t;    /* nf_t x 3 unit normals of the rest target */
-    double *tw;
     int32_t *tptr;  /* nf_t + 1: pairs of target triangle t are src[tptr[t] .. tptr[t+1]) */
     int32_t *tsrc;
     int64_t npairs;
@@ -217,12 +216,6 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
         dtx_frame_inverses(src->V, src->F, src->nf, eps_s, p->Vinv_s);
         dtx_gradient_operator(tgt->V, tgt->F, nf, eps_t, p->G_t);
         dtx_face_normals(tgt->V, tgt->F, nf, p->n_t);
-        p->tw = malloc(sizeof(double) * nf); double tot = 0;
-        for (int32_t t = 0; t < nf; t++) { double *g = p->G_t + 9*t; const double *a = tgt->V + 3*tgt->F[3*t], *b2 = tgt->V + 3*tgt->F[3*t+1], *c2 = tgt->V + 3*tgt->F[3*t+2];
-            double e1[3], e2[3], cr[3]; for (int k=0;k<3;k++){e1[k]=b2[k]-a[k]; e2[k]=c2[k]-a[k];}
-            cr[0]=e1[1]*e2[2]-e1[2]*e2[1]; cr[1]=e1[2]*e2[0]-e1[0]*e2[2]; cr[2]=e1[0]*e2[1]-e1[1]*e2[0];
-            p->tw[t] = sqrt(cr[0]*cr[0]+cr[1]*cr[1]+cr[2]*cr[2]); tot += p->tw[t]; (void)g; }
-        for (int32_t t = 0; t < nf; t++) p->tw[t] *= nf / tot;
     }
     for (int64_t i = 0; i < npairs; i++)
         p->tptr[pairs[2 * i + 1] + 1]++;
@@ -280,8 +273,7 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     if (!T || !Tf)
         goto nomem;
     for (int32_t t = 0; t < nf; t++) {
-        double mult = p->tptr[t + 1] - p->tptr[t];
-        if (getenv("DTX_AREAW")) mult *= p->tw[t];
+        int32_t mult = p->tptr[t + 1] - p->tptr[t];
         const double *g = p->G_t + 9 * (size_t)t;
         if (mult == 0)
             continue;
@@ -417,7 +409,6 @@ static double frame_rhs(const dtx_sp04_plan *p, const double *S, double *b)
                 sn[r] = s[3 * r] * n[0] + s[3 * r + 1] * n[1] + s[3 * r + 2] * n[2];
             cst -= sn[0] * sn[0] + sn[1] * sn[1] + sn[2] * sn[2];
         }
-        if (getenv("DTX_AREAW")) for (int i = 0; i < 9; i++) M[i] *= p->tw[t];
         for (int j = 0; j < 3; j++)
             for (int c = 0; c < 3; c++)
                 b[(size_t)c * p->nv_t + tv[j]] +=
@@ -543,4 +534,29 @@ dtx_status dtx_sp04_apply(dtx_sp04_plan *p, int64_t nframes, const double *Xs, d
         return first_err.code;
     }
     return DTX_OK;
+}
+
+double dtx_sp04_plan_bare_solve_seconds(dtx_sp04_plan *p, int nrep)
+{
+    cholmod_common cc;
+    cholmod_dense *B, *X = NULL, *Y = NULL, *E = NULL;
+    double t0, t;
+    cholmod_start(&cc);
+    cc.print = 0;
+    B = cholmod_ones((size_t)p->nfree, 3, CHOLMOD_REAL, &cc);
+    if (!B) {
+        cholmod_finish(&cc);
+        return -1.0;
+    }
+    cholmod_solve2(CHOLMOD_A, p->L, B, NULL, &X, NULL, &Y, &E, &cc); /* warm-up */
+    t0 = now_seconds();
+    for (int r = 0; r < nrep; r++)
+        cholmod_solve2(CHOLMOD_A, p->L, B, NULL, &X, NULL, &Y, &E, &cc);
+    t = (now_seconds() - t0) / (nrep > 0 ? nrep : 1);
+    cholmod_free_dense(&B, &cc);
+    cholmod_free_dense(&X, &cc);
+    cholmod_free_dense(&Y, &cc);
+    cholmod_free_dense(&E, &cc);
+    cholmod_finish(&cc);
+    return t;
 }

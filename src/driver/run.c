@@ -262,6 +262,7 @@ static dtx_status transfer_sequence(MPI_Comm comm, const dtx_job *job, hid_t src
     MPI_Comm_size(comm, &nranks);
     memset(&seq, 0, sizeof seq);
     memset(&res, 0, sizeof res);
+    /* One group per target holding one result per sequence. */
     snprintf(res_path, sizeof res_path, "/results/%s/%s", tgtj->name, base_name(seq_path));
     snprintf(tgt_path, sizeof tgt_path, "/meshes/%s", tgtj->name);
     snprintf(src_desc, sizeof src_desc, "%s:%s", job->source_file, seq_path);

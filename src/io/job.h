@@ -16,8 +16,8 @@
  *                    "markers": { "file": "data/cat-lion.h5",
  *                                 "path": "/markers/cat-lion" } } ],
  *     "output": { "file": "out/cat-lion.h5", "dtype": "float32" },
- *     "sp04": { "w_smooth": 1.0, "w_identity": 0.001,
- *               "w_closest": [1, 500, 1000, 5000] }
+ *     "sp04": { "w_smooth": 1.0, "w_identity": 0.3,
+ *               "w_closest": [1, 100, 5000, 5000, 5000, 5000] }
  *   }
  */
 #ifndef DTX_JOB_H
@@ -72,9 +72,9 @@ typedef struct {
 /* sp04 parameters (defaults in brackets). */
 typedef struct {
     double w_smooth;       /* [1.0] correspondence smoothness weight */
-    double w_identity;     /* [0.001] correspondence identity weight */
+    double w_identity;     /* [0.3] correspondence identity weight (paper: 0.001) */
     int n_closest;         /* number of closest-point iterations */
-    double w_closest[16];  /* [1, 500, 1000, 5000] closest-point weights */
+    double w_closest[16];  /* [1, 100, 5000, 5000, 5000, 5000] closest-point weights */
     double max_distance;   /* [0.1] closest-point / pairing threshold, as a
                               fraction of the target bounding-box diagonal */
     double max_angle_deg;  /* [90] normals must differ by less than this */
@@ -116,6 +116,18 @@ dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err);
  * check_files is 0 (used by the fuzzer and unit tests). */
 dtx_status dtx_job_parse(const char *text, size_t len, const char *name, const char *base_dir,
                          int check_files, dtx_job *job, dtx_error *err);
+/* (Details for both: text need not be NUL-terminated; name may be NULL
+ * ("job" in messages, job_path NULL); base_dir NULL or "" means the current
+ * directory.  Resolved paths are absolute: the base directory is made
+ * canonical with realpath() when it exists, leading ".." of a relative
+ * path go up from it, "." and repeated "/" are dropped, nothing else is
+ * touched.  Messages read "NAME: at /json/pointer: what was expected, got
+ * what", or "NAME:LINE:COL: JSON syntax error ..." (DTX_EPARSE); schema
+ * and cross-field errors are DTX_EJOB, an unreadable job file DTX_EIO.
+ * The target name defaults to the last part of its mesh path and must be
+ * unique; a pinned vertex may not repeat; the output file is compared to
+ * the inputs as files (same inode, or same canonical path).  Thread-safe
+ * apart from strerror().) */
 
 /* Frees everything the job owns and zeroes it.  Accepts NULL. */
 void dtx_job_free(dtx_job *job);
@@ -123,6 +135,12 @@ void dtx_job_free(dtx_job *job);
 /* Canonical parameter text of the job's method (JSON), for provenance and
  * for cache keys.  Caller frees. */
 char *dtx_job_params_json(const dtx_job *job);
+/* (Format: {"method":"sp04","sp04":{...}} with every parameter, defaults
+ * included, keys sorted by byte value at every level, no spaces, numbers
+ * printed with %.17g (needs the default "C" LC_NUMERIC locale).  Methods
+ * whose parameters dtx_job does not hold yet get their own object from the
+ * job text, canonicalised the same way, or {}.  NULL when out of memory or
+ * job is NULL.  Thread-safe.) */
 
 /* The job schema, schemas/job.schema.json, as built into the binary
  * (job_schema_text.c) so that dtx works without the source tree: a

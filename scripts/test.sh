@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# test.sh: set up, build and run the test suite.
+#
+# Usage: scripts/test.sh [CTEST_ARGS...]      e.g. scripts/test.sh -R core
+#   Runs scripts/setup.sh, scripts/build.sh, then
+#   `ctest --test-dir build --output-on-failure -j2 CTEST_ARGS...`.
+#   With DTX_SANITIZE_TESTS=1 it then also builds build-asan/ (ASan+UBSan, leak
+#   checks on, tests/lsan.supp suppressing only OpenMPI/hwloc start-up leaks) and
+#   runs the same tests there.
+# Environment:
+#   CI=true               what CI sets; turns DTX_SANITIZE_TESTS on by default
+#   DTX_SANITIZE_TESTS    0/1: also run the sanitizer pass (default 1 if CI=true, else 0)
+#   CTEST_JOBS            parallel tests (default 2)
+# Exit status: 0 when every pass passed, else the first failing ctest's status
+# (or the failing step's). The last line sums up all passes: "total: N passed, M failed".
+set -uo pipefail
+
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$repo" || exit 1
+unset DTX_BUILD_DIR  # the passes below use build/ and build-asan/
+
+if [[ ${CI:-} == true ]]; then default_san=1; else default_san=0; fi
+sanitize_tests=${DTX_SANITIZE_TESTS:-$default_san}
+ctest_jobs=${CTEST_JOBS:-2}
+
+"$repo/scripts/setup.sh" || { echo "test: error: scripts/setup.sh failed" >&2; exit 1; }
+
+status=0
+summary=()
+total_pass=0
+total_fail=0
+
+# run_pass DIR BUILD_ARGS...: build one configuration (in DIR) and run ctest there.
+run_pass() {
+    local dir=$1 rc log line t f
+    shift
+    if ! DTX_SKIP_SETUP=1 "$repo/scripts/build.sh" "$@"; then
+        echo "test: error: build of $dir failed" >&2
+        summary+=("$dir: build failed")
+        [[ $status -ne 0 ]] || status=1
+        total_fail=$((total_fail + 1))
+        return
+    fi
+    log=$(mktemp "${TMPDIR:-/tmp}/dtx-ctest.XXXXXX")
+    echo "test: running ctest in $dir"
+    ctest --test-dir "$repo/$dir" --output-on-failure --no-tests=error -j "$ctest_jobs" \
+        "${ctest_args[@]}" 2>&1 | tee "$log"
+    rc=${PIPESTATUS[0]}
+    line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -n 1)
+    rm -f "$log"
+    if [[ -n $line ]]; then
+        f=$(sed -E 's/.* ([0-9]+) tests? failed.*/\1/' <<< "$line")
+        t=$(sed -E 's/.* out of ([0-9]+).*/\1/' <<< "$line")
+        total_pass=$((total_pass + t - f))
+        total_fail=$((total_fail + f))
+        summary+=("$dir: $line")
+    else
+        summary+=("$dir: ctest exited with status $rc and no summary")
+        [[ $rc -eq 0 ]] || total_fail=$((total_fail + 1))
+    fi
+    if [[ $rc -ne 0 && $status -eq 0 ]]; then status=$rc; fi
+}
+
+ctest_args=("$@")
+run_pass build
+
+if [[ $sanitize_tests == 1 ]]; then
+    # Leak checks on; the suppressions cover only MPI_Init's well-known leaks in
+    # OpenMPI and its helpers, never dtx code. OpenMPI's plugins are built without
+    # frame pointers, so the fast unwinder loses the stack inside them and their
+    # leaks could not be matched to libmpi/libopen-rte: unwind with DWARF instead.
+    export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:fast_unwind_on_malloc=0}
+    export LSAN_OPTIONS=suppressions=$repo/tests/lsan.supp:print_suppressions=0
+    export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
+    # Lets test scripts know the binaries are sanitized (e.g. to skip valgrind).
+    export DTX_SANITIZED=1
+    run_pass build-asan --sanitize
+fi
+
+echo
+echo "test: summary"
+for s in "${summary[@]}"; do echo "  $s"; done
+echo "total: $total_pass passed, $total_fail failed"
+exit "$status"

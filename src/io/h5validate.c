@@ -1,0 +1,1117 @@
+/*
+ * h5validate.c: checks a file against the dtx HDF5 layout description
+ * (schemas/hdf5-layout-v1.json, compiled in as dtx_h5_layout_json()).
+ *
+ * The description lists, per kind of group (meshes, sequences, markers,
+ * correspondences, results), the datasets with their dtype class, sizes and
+ * dims (numbers or symbols such as "nv"), the attributes, the references
+ * to other groups (soft links and path attributes) and a list of checks.
+ * The walk goes kind by kind in the order of the description, so a
+ * referenced group (a sequence's rest mesh) is checked, and its symbols
+ * known, before the groups that refer to it.
+ *
+ * Every problem becomes one report line "PATH: problem"; a group without
+ * problems gets "PATH: ok".  Data is read only for the value checks (face
+ * ranges, finiteness, frame_done), and only after the stored bytes have
+ * been found able to hold the dataset's shape.
+ */
+#include "h5layout.h"
+
+#include <cjson/cJSON.h>
+
+#include <errno.h>
+#include <math.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#define MAX_SYMS 16
+#define MAX_DSETS 8
+#define MAX_ATTRS 24
+#define MAX_REFS 8
+#define GZIP_MAX_RATIO 1100u
+
+#define CLOSE_ID(fn, id)                                                                       \
+    do {                                                                                       \
+        if ((id) > 0)                                                                          \
+            (void)fn(id);                                                                      \
+        (id) = H5I_INVALID_HID;                                                                \
+    } while (0)
+
+typedef struct {
+    char name[32];
+    int64_t value;
+    char from[64]; /* the dataset or attribute that bound it */
+} vsym;
+
+/* A checked group and the symbols found in it. */
+typedef struct {
+    char path[DTX_H5_PATH_MAX];
+    char kind[32];
+    int nsym;
+    vsym sym[MAX_SYMS];
+} vobj;
+
+/* A dataset of the current group as found in the file. */
+typedef struct {
+    char name[64];
+    int usable; /* present, with the expected class and rank */
+    int rank;
+    hsize_t dims[3];
+    H5T_class_t cls;
+} vdset;
+
+typedef struct {
+    char name[64];
+    int is_int;
+    int64_t ival;
+    char *sval;
+} vattr;
+
+typedef struct {
+    char name[64];
+    long obj; /* index into objs, or -1 when unresolved */
+} vref;
+
+typedef struct {
+    hid_t file;
+    char fname[512];
+    /* the report */
+    char *buf;
+    size_t len, cap;
+    int oom;
+    int nproblems, nobjects, nbad;
+    char first[sizeof(((dtx_error *)0)->msg)];
+    /* groups checked so far */
+    vobj *objs;
+    size_t nobjs, capobjs;
+    /* the group being checked */
+    vobj cur;
+    int cur_problems;
+    vdset dsets[MAX_DSETS];
+    int ndsets;
+    vattr attrs[MAX_ATTRS];
+    int nattrs;
+    vref refs[MAX_REFS];
+    int nrefs;
+} vctx;
+
+/* ======================================================== small helpers */
+
+/* out = a b c d e (NULL parts skipped), truncated to n; -1 if truncated.
+ * (Hand-written so that the compiler's truncation warnings stay quiet.) */
+static int cat5(char *o, size_t n, const char *a, const char *b, const char *c, const char *d,
+                const char *e)
+{
+    const char *parts[5] = {a, b, c, d, e};
+    size_t used = 0;
+    int trunc = 0;
+    for (int i = 0; i < 5; i++)
+        for (const char *p = parts[i]; p && *p; p++) {
+            if (used + 1 >= n) {
+                trunc = 1;
+                break;
+            }
+            o[used++] = *p;
+        }
+    if (n > 0)
+        o[used] = '\0';
+    return trunc ? -1 : 0;
+}
+
+static int join(const char *group, const char *name, char *out_path, size_t n)
+{
+    return cat5(out_path, n, group, strcmp(group, "/") == 0 ? "" : "/", name, NULL, NULL);
+}
+
+/* ================================================================ report */
+
+#if defined(__GNUC__)
+#define DTX_PRINTF(a, b) __attribute__((format(printf, a, b)))
+#else
+#define DTX_PRINTF(a, b)
+#endif
+
+static void DTX_PRINTF(2, 3) out(vctx *c, const char *fmt, ...)
+{
+    va_list ap;
+    int n;
+    if (c->oom)
+        return;
+    va_start(ap, fmt);
+    n = vsnprintf(NULL, 0, fmt, ap);
+    va_end(ap);
+    if (n < 0)
+        return;
+    if (c->len + (size_t)n + 1 > c->cap) {
+        size_t cap = c->cap ? c->cap : 1024;
+        char *p;
+        while (cap < c->len + (size_t)n + 1)
+            cap *= 2;
+        p = realloc(c->buf, cap);
+        if (!p) {
+            c->oom = 1;
+            return;
+        }
+        c->buf = p;
+        c->cap = cap;
+    }
+    va_start(ap, fmt);
+    vsnprintf(c->buf + c->len, c->cap - c->len, fmt, ap);
+    va_end(ap);
+    c->len += (size_t)n;
+}
+
+/* Reports a problem of the object at where (a group or dataset path). */
+static void DTX_PRINTF(3, 4) problem(vctx *c, const char *where, const char *fmt, ...)
+{
+    char msg[800];
+    va_list ap;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    out(c, "%s: %s\n", where, msg);
+    if (c->nproblems == 0)
+        (void)cat5(c->first, sizeof c->first, c->fname, ": ", where, ": ", msg);
+    c->nproblems++;
+    c->cur_problems++;
+}
+
+/* The message of a dtx_error without its leading "FILE: " and "PATH: ". */
+static const char *strip_prefix(const vctx *c, const char *msg, const char *path)
+{
+    size_t n = strlen(c->fname);
+    if (strncmp(msg, c->fname, n) == 0 && strncmp(msg + n, ": ", 2) == 0)
+        msg += n + 2;
+    n = strlen(path);
+    if (strncmp(msg, path, n) == 0 && strncmp(msg + n, ": ", 2) == 0)
+        msg += n + 2;
+    return msg;
+}
+
+static const char *jstr(const cJSON *o, const char *key)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    return cJSON_IsString(v) ? v->valuestring : NULL;
+}
+
+static int jbool(const cJSON *o, const char *key)
+{
+    return cJSON_IsTrue(cJSON_GetObjectItemCaseSensitive(o, key));
+}
+
+static int jnum(const cJSON *o, const char *key, int64_t *v)
+{
+    const cJSON *n = cJSON_GetObjectItemCaseSensitive(o, key);
+    if (!cJSON_IsNumber(n))
+        return 0;
+    *v = (int64_t)n->valuedouble;
+    return 1;
+}
+
+/* "T x nv x 3" from a dims array. */
+static void dims_spec_text(const cJSON *dims, char *buf, size_t n)
+{
+    const cJSON *d;
+    size_t used = 0;
+    buf[0] = '\0';
+    cJSON_ArrayForEach(d, dims)
+    {
+        int w;
+        if (cJSON_IsNumber(d))
+            w = snprintf(buf + used, n - used, "%s%d", used ? " x " : "", (int)d->valuedouble);
+        else
+            w = snprintf(buf + used, n - used, "%s%s", used ? " x " : "",
+                         cJSON_IsString(d) ? d->valuestring : "?");
+        if (w < 0 || (size_t)w >= n - used)
+            break;
+        used += (size_t)w;
+    }
+}
+
+static void dims_found_text(const hsize_t *dims, int rank, char *buf, size_t n)
+{
+    size_t used = 0;
+    buf[0] = '\0';
+    for (int k = 0; k < rank; k++) {
+        int w = snprintf(buf + used, n - used, "%s%llu", k ? " x " : "",
+                         (unsigned long long)dims[k]);
+        if (w < 0 || (size_t)w >= n - used)
+            break;
+        used += (size_t)w;
+    }
+}
+
+static const char *class_text(H5T_class_t cls, H5T_sign_t sign)
+{
+    switch (cls) {
+    case H5T_INTEGER: return sign == H5T_SGN_NONE ? "unsigned integer" : "signed integer";
+    case H5T_FLOAT: return "float";
+    case H5T_STRING: return "string";
+    case H5T_COMPOUND: return "compound";
+    case H5T_ENUM: return "enum";
+    case H5T_VLEN: return "variable-length sequence";
+    case H5T_ARRAY: return "array";
+    case H5T_OPAQUE: return "opaque";
+    case H5T_REFERENCE: return "reference";
+    case H5T_BITFIELD: return "bitfield";
+    default: return "unknown";
+    }
+}
+
+/* =============================================================== symbols */
+
+static vsym *find_sym(vobj *o, const char *name)
+{
+    for (int i = 0; i < o->nsym; i++)
+        if (strcmp(o->sym[i].name, name) == 0)
+            return &o->sym[i];
+    return NULL;
+}
+
+/* Binds symbol name to value, or reports a disagreement with its earlier
+ * binding.  where/what describe the new occurrence. */
+static void bind(vctx *c, const char *name, int64_t value, const char *where, const char *what)
+{
+    vsym *s = find_sym(&c->cur, name);
+    if (s) {
+        if (s->value != value)
+            problem(c, where, "%s is %lld, but %s is %lld (from %s)", what, (long long)value,
+                    name, (long long)s->value, s->from);
+        return;
+    }
+    if (c->cur.nsym < MAX_SYMS) {
+        s = &c->cur.sym[c->cur.nsym++];
+        snprintf(s->name, sizeof s->name, "%s", name);
+        snprintf(s->from, sizeof s->from, "%s", what);
+        s->value = value;
+    }
+}
+
+/* Value of "nv" (current group) or "rest.nv" (a referenced group).
+ * Returns 0 when unknown; *desc names where it came from. */
+static int lookup(vctx *c, const char *name, int64_t *value, char *desc, size_t n)
+{
+    const char *dot = strchr(name, '.');
+    vsym *s;
+    if (!dot) {
+        s = find_sym(&c->cur, name);
+        if (!s)
+            return 0;
+        *value = s->value;
+        snprintf(desc, n, "%s (from %s)", name, s->from);
+        return 1;
+    }
+    for (int i = 0; i < c->nrefs; i++)
+        if (strlen(c->refs[i].name) == (size_t)(dot - name) &&
+            strncmp(c->refs[i].name, name, (size_t)(dot - name)) == 0) {
+            vobj *o;
+            if (c->refs[i].obj < 0)
+                return 0;
+            o = &c->objs[c->refs[i].obj];
+            s = find_sym(o, dot + 1);
+            if (!s)
+                return 0;
+            *value = s->value;
+            snprintf(desc, n, "%s of %s", dot + 1, o->path);
+            return 1;
+        }
+    return 0;
+}
+
+static vdset *find_dset(vctx *c, const char *name)
+{
+    for (int i = 0; i < c->ndsets; i++)
+        if (strcmp(c->dsets[i].name, name) == 0)
+            return &c->dsets[i];
+    return NULL;
+}
+
+static vattr *find_attr(vctx *c, const char *name)
+{
+    for (int i = 0; i < c->nattrs; i++)
+        if (strcmp(c->attrs[i].name, name) == 0)
+            return &c->attrs[i];
+    return NULL;
+}
+
+/* ============================================================== datasets */
+
+static int dtype_matches(const char *want, H5T_class_t cls, H5T_sign_t sign)
+{
+    if (strcmp(want, "float") == 0)
+        return cls == H5T_FLOAT;
+    if (strcmp(want, "int") == 0)
+        return cls == H5T_INTEGER && sign == H5T_SGN_2;
+    if (strcmp(want, "uint") == 0)
+        return cls == H5T_INTEGER && sign == H5T_SGN_NONE;
+    if (strcmp(want, "string") == 0)
+        return cls == H5T_STRING;
+    return 0;
+}
+
+static const char *dtype_text(const char *want)
+{
+    if (strcmp(want, "float") == 0)
+        return "float";
+    if (strcmp(want, "int") == 0)
+        return "signed integer";
+    if (strcmp(want, "uint") == 0)
+        return "unsigned integer";
+    return want;
+}
+
+static void check_dataset(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *name = spec->string, *dtype = jstr(spec, "dtype"), *layout = jstr(spec, "layout");
+    const cJSON *dims = cJSON_GetObjectItemCaseSensitive(spec, "dims");
+    const cJSON *sizes = cJSON_GetObjectItemCaseSensitive(spec, "sizes");
+    char full[DTX_H5_PATH_MAX], shape[200], found[200];
+    hid_t d = H5I_INVALID_HID, ft = H5I_INVALID_HID, sp = H5I_INVALID_HID;
+    hid_t dcpl = H5I_INVALID_HID;
+    H5O_info_t info;
+    vdset *rec;
+    int rank, want_rank = cJSON_GetArraySize(dims), k = 0;
+    H5T_class_t cls;
+    H5T_sign_t sign = H5T_SGN_ERROR;
+    const cJSON *dim;
+
+    if (c->ndsets >= MAX_DSETS || join(group, name, full, sizeof full))
+        return;
+    rec = &c->dsets[c->ndsets++];
+    memset(rec, 0, sizeof *rec);
+    snprintf(rec->name, sizeof rec->name, "%s", name);
+    dims_spec_text(dims, shape, sizeof shape);
+
+    if (H5Lexists(c->file, full, H5P_DEFAULT) <= 0) {
+        if (jbool(spec, "required"))
+            problem(c, group, "missing dataset %s (%s %s)", name, dtype ? dtype : "", shape);
+        return;
+    }
+    if (H5Oexists_by_name(c->file, full, H5P_DEFAULT) <= 0) {
+        problem(c, full, "link does not resolve to an object");
+        return;
+    }
+    if (H5Oget_info_by_name2(c->file, full, &info, H5O_INFO_BASIC, H5P_DEFAULT) < 0 ||
+        info.type != H5O_TYPE_DATASET) {
+        problem(c, full, "is not a dataset");
+        return;
+    }
+    d = H5Dopen2(c->file, full, H5P_DEFAULT);
+    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
+    sp = d > 0 ? H5Dget_space(d) : H5I_INVALID_HID;
+    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
+    if (d < 0 || ft < 0 || sp < 0 || dcpl < 0) {
+        problem(c, full, "cannot be opened");
+        goto done;
+    }
+    cls = H5Tget_class(ft);
+    if (cls == H5T_INTEGER)
+        sign = H5Tget_sign(ft);
+    rec->cls = cls;
+    rank = H5Sget_simple_extent_ndims(sp);
+    rec->rank = rank < 0 ? 0 : rank;
+    if (rank > 3 || H5Sget_simple_extent_dims(sp, rec->dims, NULL) < 0) {
+        problem(c, full, "expected %d dimension%s %s, found %d", want_rank,
+                want_rank == 1 ? "" : "s", shape, rank);
+        goto done;
+    }
+    /* ---------------------------------------------------- dtype */
+    if (dtype && !dtype_matches(dtype, cls, sign)) {
+        problem(c, full, "expected %s values, found %s", dtype_text(dtype), class_text(cls, sign));
+        goto done;
+    }
+    if (sizes && cls != H5T_STRING) {
+        const cJSON *s;
+        size_t size = H5Tget_size(ft);
+        int ok = 0;
+        char list[64] = "";
+        size_t used = 0;
+        cJSON_ArrayForEach(s, sizes)
+        {
+            int w;
+            if (cJSON_IsNumber(s) && (size_t)s->valuedouble == size)
+                ok = 1;
+            w = snprintf(list + used, sizeof list - used, "%s%d", used ? " or " : "",
+                         8 * (int)s->valuedouble);
+            if (w > 0 && (size_t)w < sizeof list - used)
+                used += (size_t)w;
+        }
+        if (!ok) {
+            problem(c, full, "expected %s-bit %s values, found %d-bit", list,
+                    dtype_text(dtype ? dtype : "?"), 8 * (int)size);
+            goto done;
+        }
+    }
+    /* ---------------------------------------------------- shape */
+    if (rank != want_rank) {
+        problem(c, full, "expected %d dimension%s %s, found %d", want_rank,
+                want_rank == 1 ? "" : "s", shape, rank);
+        goto done;
+    }
+    dims_found_text(rec->dims, rank, found, sizeof found);
+    rec->usable = 1;
+    cJSON_ArrayForEach(dim, dims)
+    {
+        if (cJSON_IsNumber(dim) && rec->dims[k] != (hsize_t)dim->valuedouble) {
+            problem(c, full, "expected shape %s, found %s", shape, found);
+            rec->usable = 0;
+        } else if (cJSON_IsString(dim)) {
+            char what[128];
+            if (rec->dims[k] > (hsize_t)INT32_MAX) {
+                problem(c, full, "dimension %d is %llu, more than the %d dtx supports", k,
+                        (unsigned long long)rec->dims[k], (int)INT32_MAX);
+                rec->usable = 0;
+            }
+            snprintf(what, sizeof what, "dimension %d of %s", k, name);
+            bind(c, dim->valuestring, (int64_t)rec->dims[k], full, what);
+        }
+        k++;
+    }
+    if (layout && strcmp(layout, "chunked") == 0 && H5Pget_layout(dcpl) != H5D_CHUNKED)
+        problem(c, full, "expected a chunked layout (chunks along the frame dimension)");
+done:
+    CLOSE_ID(H5Pclose, dcpl);
+    CLOSE_ID(H5Sclose, sp);
+    CLOSE_ID(H5Tclose, ft);
+    CLOSE_ID(H5Dclose, d);
+}
+
+/* Reads a whole usable dataset as mtype (esz bytes per value), after
+ * checking the stored bytes can hold it.  Returns NULL (with a problem
+ * reported, or silently when the dataset was already reported) on
+ * failure. */
+static void *read_values(vctx *c, const char *group, const vdset *rec, hid_t mtype, size_t esz,
+                         size_t *npts)
+{
+    char full[DTX_H5_PATH_MAX];
+    hid_t d = H5I_INVALID_HID, ft = H5I_INVALID_HID, dcpl = H5I_INVALID_HID;
+    void *buf = NULL;
+    uint64_t need;
+    hsize_t stored;
+    int nfilt;
+    *npts = 1;
+    if (!rec->usable || join(group, rec->name, full, sizeof full))
+        return NULL;
+    for (int k = 0; k < rec->rank; k++)
+        *npts *= (size_t)rec->dims[k];
+    d = H5Dopen2(c->file, full, H5P_DEFAULT);
+    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
+    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
+    if (d < 0 || ft < 0 || dcpl < 0) {
+        problem(c, full, "cannot be opened");
+        goto done;
+    }
+    need = (uint64_t)*npts * H5Tget_size(ft);
+    stored = H5Dget_storage_size(d);
+    nfilt = H5Pget_nfilters(dcpl);
+    if (nfilt > 0 ? need / GZIP_MAX_RATIO > stored + 64 : need > stored) {
+        problem(c, full, "needs %llu bytes, but only %llu %sbytes are stored: the dataset was "
+                "never fully written", (unsigned long long)need, (unsigned long long)stored,
+                nfilt > 0 ? "compressed " : "");
+        goto done;
+    }
+    buf = dtx_alloc(*npts, esz, 0);
+    if (!buf) {
+        problem(c, full, "out of memory reading %zu values", *npts);
+        goto done;
+    }
+    if (*npts > 0 && H5Dread(d, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, buf) < 0) {
+        problem(c, full, "cannot be read");
+        free(buf);
+        buf = NULL;
+    }
+done:
+    CLOSE_ID(H5Pclose, dcpl);
+    CLOSE_ID(H5Tclose, ft);
+    CLOSE_ID(H5Dclose, d);
+    return buf;
+}
+
+/* ============================================================ attributes */
+
+static void check_attribute(vctx *c, const char *obj, const cJSON *spec)
+{
+    const char *name = spec->string, *type = jstr(spec, "type");
+    const cJSON *oneof = cJSON_GetObjectItemCaseSensitive(spec, "one_of");
+    const cJSON *value = cJSON_GetObjectItemCaseSensitive(spec, "value");
+    const char *equals = jstr(spec, "equals");
+    dtx_error e;
+    vattr *a;
+    htri_t ex;
+    int64_t hexlen;
+
+    ex = H5Aexists_by_name(c->file, obj, name, H5P_DEFAULT);
+    if (ex <= 0) {
+        if (jbool(spec, "required"))
+            problem(c, obj, "missing attribute %s (%s)", name, type ? type : "");
+        return;
+    }
+    if (c->nattrs >= MAX_ATTRS)
+        return;
+    a = &c->attrs[c->nattrs];
+    memset(a, 0, sizeof *a);
+    snprintf(a->name, sizeof a->name, "%s", name);
+    if (type && strcmp(type, "int") == 0) {
+        if (dtx_h5_read_attr_int(c->file, obj, name, &a->ival, &e) != DTX_OK) {
+            problem(c, obj, "%s", strip_prefix(c, e.msg, obj));
+            return;
+        }
+        a->is_int = 1;
+        c->nattrs++;
+        if (cJSON_IsNumber(value) && a->ival != (int64_t)value->valuedouble)
+            problem(c, obj, "attribute %s is %lld, expected %lld", name, (long long)a->ival,
+                    (long long)value->valuedouble);
+        if (cJSON_IsArray(oneof)) {
+            const cJSON *o;
+            int ok = 0;
+            cJSON_ArrayForEach(o, oneof) ok |= cJSON_IsNumber(o) &&
+                                               (int64_t)o->valuedouble == a->ival;
+            if (!ok)
+                problem(c, obj, "attribute %s is %lld, not one of the allowed values", name,
+                        (long long)a->ival);
+        }
+        if (equals) {
+            char what[96];
+            snprintf(what, sizeof what, "attribute %s", name);
+            bind(c, equals, a->ival, obj, what);
+        }
+        return;
+    }
+    if (dtx_h5_read_attr_str(c->file, obj, name, &a->sval, &e) != DTX_OK) {
+        problem(c, obj, "%s", strip_prefix(c, e.msg, obj));
+        return;
+    }
+    c->nattrs++;
+    if (cJSON_IsString(value) && strcmp(a->sval, value->valuestring) != 0)
+        problem(c, obj, "attribute %s is \"%.100s\", expected \"%s\"", name, a->sval,
+                value->valuestring);
+    if (jbool(spec, "json") && a->sval[0]) {
+        cJSON *j = cJSON_Parse(a->sval);
+        if (!j)
+            problem(c, obj, "attribute %s is not valid JSON", name);
+        cJSON_Delete(j);
+    }
+    if (jnum(spec, "hex", &hexlen)) {
+        size_t n = strlen(a->sval);
+        int ok = (int64_t)n == hexlen;
+        for (size_t i = 0; i < n && ok; i++)
+            ok = (a->sval[i] >= '0' && a->sval[i] <= '9') ||
+                 (a->sval[i] >= 'a' && a->sval[i] <= 'f');
+        if (!ok)
+            problem(c, obj, "attribute %s is \"%.40s\", expected %d lowercase hex digits", name,
+                    a->sval, (int)hexlen);
+    }
+}
+
+/* ============================================================ references */
+
+static long find_obj(vctx *c, const char *path)
+{
+    for (size_t i = 0; i < c->nobjs; i++)
+        if (strcmp(c->objs[i].path, path) == 0)
+            return (long)i;
+    return -1;
+}
+
+static void check_reference(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *link = jstr(spec, "link"), *attr = jstr(spec, "attribute");
+    const char *kind = jstr(spec, "kind");
+    int required = jbool(spec, "required");
+    char full[DTX_H5_PATH_MAX], target[DTX_H5_PATH_MAX] = "";
+    vref *r;
+    long idx;
+
+    if (c->nrefs >= MAX_REFS)
+        return;
+    r = &c->refs[c->nrefs++];
+    snprintf(r->name, sizeof r->name, "%s", spec->string);
+    r->obj = -1;
+
+    /* ------------------------------------------------- soft link */
+    if (link && join(group, link, full, sizeof full) == 0) {
+        H5L_info_t li;
+        if (H5Lexists(c->file, full, H5P_DEFAULT) <= 0) {
+            if (required)
+                problem(c, group, "missing soft link %s (to a %s group)", link,
+                        kind ? kind : "");
+            return;
+        }
+        if (H5Lget_info(c->file, full, &li, H5P_DEFAULT) < 0) {
+            problem(c, full, "cannot read the link");
+            return;
+        }
+        if (li.type != H5L_TYPE_SOFT) {
+            problem(c, full, "expected a soft link to a %s group", kind ? kind : "");
+            return;
+        }
+        if (li.u.val_size == 0 || li.u.val_size >= sizeof target ||
+            H5Lget_val(c->file, full, target, sizeof target, H5P_DEFAULT) < 0) {
+            problem(c, full, "cannot read the link's target");
+            return;
+        }
+        target[li.u.val_size - 1] = '\0';
+        if (H5Oexists_by_name(c->file, full, H5P_DEFAULT) <= 0) {
+            problem(c, full, "soft link to %s does not resolve", target);
+            return;
+        }
+    }
+    /* ------------------------------------------------- path attribute */
+    if (attr) {
+        vattr *a = find_attr(c, attr);
+        if (!a || a->is_int)
+            return; /* missing or mistyped: reported with the attributes */
+        if (target[0]) {
+            if (strcmp(a->sval, target) != 0)
+                problem(c, group, "attribute %s is \"%.200s\", but link %s points to %s", attr,
+                        a->sval, link, target);
+        } else if (a->sval[0] == '/' && !strstr(a->sval, ":/")) {
+            /* An in-file path; "FILE:/PATH" (the file part may itself be
+             * absolute) names an object in another file and is not followed. */
+            snprintf(target, sizeof target, "%s", a->sval);
+            if (!dtx_h5_path_exists(c->file, target)) {
+                problem(c, group, "attribute %s names %s, which does not exist in this file",
+                        attr, target);
+                return;
+            }
+        } else if (a->sval[0] == '\0') {
+            if (required)
+                problem(c, group, "attribute %s is empty", attr);
+            return;
+        } else {
+            return; /* "FILE:PATH": another file, not followed */
+        }
+    }
+    if (!target[0])
+        return;
+    idx = find_obj(c, target);
+    if (idx < 0 || (kind && strcmp(c->objs[idx].kind, kind) != 0))
+        problem(c, group, "%s %s is not a checked %s group (/%s/NAME)", spec->string, target,
+                kind ? kind : "", kind ? kind : "");
+    else
+        r->obj = idx;
+}
+
+/* ================================================================ checks */
+
+static void check_range(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *dname = jstr(spec, "dataset"), *below = jstr(spec, "below");
+    vdset *rec = dname ? find_dset(c, dname) : NULL;
+    int64_t min = INT64_MIN, max = INT64_MAX, column = -1, bad = 0, first_i = -1, first_v = 0;
+    char desc[DTX_H5_PATH_MAX + 64] = "", full[DTX_H5_PATH_MAX];
+    size_t npts, ncols;
+    int64_t *v;
+    if (!rec || !rec->usable || rec->cls != H5T_INTEGER)
+        return;
+    jnum(spec, "min", &min);
+    jnum(spec, "column", &column);
+    if (below && !lookup(c, below, &max, desc, sizeof desc))
+        max = INT64_MAX; /* unknown bound: only the minimum is checked */
+    v = read_values(c, group, rec, H5T_NATIVE_INT64, sizeof(int64_t), &npts);
+    if (!v)
+        return;
+    ncols = rec->rank == 2 && rec->dims[1] > 0 ? (size_t)rec->dims[1] : 1;
+    for (size_t i = 0; i < npts; i++) {
+        if (column >= 0 && (int64_t)(i % ncols) != column)
+            continue;
+        if (v[i] < min || v[i] >= max) {
+            if (bad++ == 0) {
+                first_i = (int64_t)i;
+                first_v = v[i];
+            }
+        }
+    }
+    free(v);
+    if (bad) {
+        join(group, dname, full, sizeof full);
+        if (max == INT64_MAX)
+            problem(c, full, "%lld value%s below %lld; first %lld at [%lld, %lld]",
+                    (long long)bad, bad == 1 ? "" : "s", (long long)min, (long long)first_v,
+                    (long long)(first_i / (int64_t)ncols), (long long)(first_i % (int64_t)ncols));
+        else
+            problem(c, full,
+                    "%lld value%s out of range [%lld, %lld) (%s); first %lld at [%lld, %lld]",
+                    (long long)bad, bad == 1 ? "" : "s", (long long)min, (long long)max, desc,
+                    (long long)first_v, (long long)(first_i / (int64_t)ncols),
+                    (long long)(first_i % (int64_t)ncols));
+    }
+}
+
+static void check_finite(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *dname = jstr(spec, "dataset");
+    vdset *rec = dname ? find_dset(c, dname) : NULL;
+    char full[DTX_H5_PATH_MAX];
+    size_t npts, ncols;
+    double *v;
+    if (!rec || !rec->usable || rec->cls != H5T_FLOAT)
+        return;
+    v = read_values(c, group, rec, H5T_NATIVE_DOUBLE, sizeof(double), &npts);
+    if (!v)
+        return;
+    ncols = rec->rank == 2 && rec->dims[1] > 0 ? (size_t)rec->dims[1] : 1;
+    for (size_t i = 0; i < npts; i++)
+        if (!isfinite(v[i])) {
+            join(group, dname, full, sizeof full);
+            problem(c, full, "value at [%zu, %zu] is not finite (%g)", i / ncols, i % ncols,
+                    v[i]);
+            break;
+        }
+    free(v);
+}
+
+static void check_all_equal(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *dname = jstr(spec, "dataset");
+    const cJSON *when = cJSON_GetObjectItemCaseSensitive(spec, "when");
+    vdset *rec = dname ? find_dset(c, dname) : NULL;
+    int64_t want = 0, wval = 0, bad = 0, first = -1;
+    char full[DTX_H5_PATH_MAX];
+    const char *wattr = NULL;
+    size_t npts;
+    int64_t *v;
+    if (!rec || !rec->usable || rec->cls != H5T_INTEGER || !jnum(spec, "value", &want))
+        return;
+    if (when) {
+        vattr *a;
+        wattr = jstr(when, "attribute");
+        a = wattr ? find_attr(c, wattr) : NULL;
+        if (!a || !a->is_int || !jnum(when, "value", &wval) || a->ival != wval)
+            return;
+    }
+    v = read_values(c, group, rec, H5T_NATIVE_INT64, sizeof(int64_t), &npts);
+    if (!v)
+        return;
+    for (size_t i = 0; i < npts; i++)
+        if (v[i] != want && bad++ == 0)
+            first = (int64_t)i;
+    free(v);
+    if (bad) {
+        join(group, dname, full, sizeof full);
+        problem(c, full, "%lld of %zu entries are not %lld%s%s%s; first at [%lld]",
+                (long long)bad, npts, (long long)want, wattr ? " although " : "",
+                wattr ? wattr : "", wattr ? " = 1" : "", (long long)first);
+    }
+}
+
+static void check_one(vctx *c, const char *group, const cJSON *spec)
+{
+    const char *what = jstr(spec, "check");
+    char da[DTX_H5_PATH_MAX + 64], db[DTX_H5_PATH_MAX + 64];
+    int64_t a, b;
+    if (!what)
+        return;
+    if (strcmp(what, "at_least") == 0) {
+        const char *s = jstr(spec, "symbol");
+        if (s && lookup(c, s, &a, da, sizeof da) && jnum(spec, "value", &b) && a < b)
+            problem(c, group, "%s is %lld; at least %lld needed", da, (long long)a,
+                    (long long)b);
+    } else if (strcmp(what, "equal") == 0) {
+        const char *sa = jstr(spec, "a"), *sb = jstr(spec, "b");
+        if (sa && sb && lookup(c, sa, &a, da, sizeof da) && lookup(c, sb, &b, db, sizeof db) &&
+            a != b)
+            problem(c, group, "%s is %lld, but %s is %lld", da, (long long)a, db, (long long)b);
+    } else if (strcmp(what, "range") == 0) {
+        check_range(c, group, spec);
+    } else if (strcmp(what, "finite") == 0) {
+        check_finite(c, group, spec);
+    } else if (strcmp(what, "all_equal") == 0) {
+        check_all_equal(c, group, spec);
+    } else if (strcmp(what, "mesh_readable") == 0) {
+        /* Only on an otherwise clean mesh, to avoid reporting twice. */
+        if (c->cur_problems == 0) {
+            dtx_mesh m;
+            dtx_error e;
+            if (dtx_h5_read_mesh(c->file, group, &m, &e) != DTX_OK)
+                problem(c, group, "%s", strip_prefix(c, e.msg, group));
+            dtx_mesh_free(&m);
+        }
+    } else {
+        problem(c, group, "layout description: unknown check \"%s\"", what);
+    }
+}
+
+/* ================================================================ groups */
+
+static void reset_current(vctx *c, const char *path, const char *kind)
+{
+    for (int i = 0; i < c->nattrs; i++)
+        free(c->attrs[i].sval);
+    memset(&c->cur, 0, sizeof c->cur);
+    snprintf(c->cur.path, sizeof c->cur.path, "%s", path);
+    snprintf(c->cur.kind, sizeof c->cur.kind, "%s", kind);
+    c->cur_problems = 0;
+    c->ndsets = c->nattrs = c->nrefs = 0;
+}
+
+static void keep_current(vctx *c)
+{
+    if (c->nobjs == c->capobjs) {
+        size_t cap = c->capobjs ? 2 * c->capobjs : 16;
+        vobj *p = realloc(c->objs, cap * sizeof *p);
+        if (!p) {
+            c->oom = 1;
+            return;
+        }
+        c->objs = p;
+        c->capobjs = cap;
+    }
+    c->objs[c->nobjs++] = c->cur;
+}
+
+static void check_group(vctx *c, const cJSON *kind, const char *path)
+{
+    const cJSON *item;
+    reset_current(c, path, jstr(kind, "name"));
+    c->nobjects++;
+    cJSON_ArrayForEach(item, cJSON_GetObjectItemCaseSensitive(kind, "datasets"))
+        check_dataset(c, path, item);
+    cJSON_ArrayForEach(item, cJSON_GetObjectItemCaseSensitive(kind, "attributes"))
+        check_attribute(c, path, item);
+    cJSON_ArrayForEach(item, cJSON_GetObjectItemCaseSensitive(kind, "references"))
+        check_reference(c, path, item);
+    cJSON_ArrayForEach(item, cJSON_GetObjectItemCaseSensitive(kind, "checks"))
+        check_one(c, path, item);
+    if (c->cur_problems == 0)
+        out(c, "%s: ok\n", path);
+    else
+        c->nbad++;
+    keep_current(c);
+    reset_current(c, "", "");
+}
+
+typedef struct {
+    char **names;
+    size_t n, cap;
+    int oom;
+} name_list;
+
+static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void *data)
+{
+    name_list *l = data;
+    size_t len = strlen(name);
+    (void)g;
+    (void)info;
+    if (l->n == l->cap) {
+        size_t cap = l->cap ? 2 * l->cap : 16;
+        char **p = realloc(l->names, cap * sizeof *p);
+        if (!p) {
+            l->oom = 1;
+            return -1;
+        }
+        l->names = p;
+        l->cap = cap;
+    }
+    l->names[l->n] = malloc(len + 1);
+    if (!l->names[l->n]) {
+        l->oom = 1;
+        return -1;
+    }
+    memcpy(l->names[l->n++], name, len + 1);
+    return 0;
+}
+
+static void free_names(name_list *l)
+{
+    for (size_t i = 0; i < l->n; i++)
+        free(l->names[i]);
+    free(l->names);
+    memset(l, 0, sizeof *l);
+}
+
+static int list_members(vctx *c, const char *group, name_list *l)
+{
+    memset(l, 0, sizeof *l);
+    if (H5Literate_by_name(c->file, group, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, l,
+                           H5P_DEFAULT) < 0) {
+        free_names(l);
+        problem(c, group, "cannot list the group's members");
+        return -1;
+    }
+    return 0;
+}
+
+static int is_group(vctx *c, const char *path)
+{
+    H5O_info_t info;
+    if (!dtx_h5_path_exists(c->file, path))
+        return 0;
+    return H5Oget_info_by_name2(c->file, path, &info, H5O_INFO_BASIC, H5P_DEFAULT) >= 0 &&
+           info.type == H5O_TYPE_GROUP;
+}
+
+/* 1 when the group at path holds at least one of the kind's datasets (it
+ * is an object of that kind, complete or not), 0 when it holds none (it is
+ * a namespace group such as /results/<target>). */
+static int looks_like_object(vctx *c, const cJSON *kind, const char *path)
+{
+    const cJSON *d;
+    char full[DTX_H5_PATH_MAX];
+    cJSON_ArrayForEach(d, cJSON_GetObjectItemCaseSensitive(kind, "datasets"))
+    {
+        if (join(path, d->string, full, sizeof full) == 0 &&
+            H5Lexists(c->file, full, H5P_DEFAULT) > 0)
+            return 1;
+    }
+    return 0;
+}
+
+/* Checks the members of a kind's group or of a namespace group below it. */
+static void walk_kind(vctx *c, const cJSON *kind, const char *gpath, int depth)
+{
+    const char *kname = jstr(kind, "name");
+    size_t tl = strlen(DTX_H5_TMP_PREFIX);
+    name_list l;
+    if (list_members(c, gpath, &l) < 0)
+        return;
+    for (size_t i = 0; i < l.n; i++) {
+        char path[DTX_H5_PATH_MAX];
+        if (join(gpath, l.names[i], path, sizeof path))
+            continue;
+        if (strncmp(l.names[i], DTX_H5_TMP_PREFIX, tl) == 0)
+            out(c, "%s: note: temporary group left by an interrupted writer (not checked; "
+                   "remove it or resume the run)\n", path);
+        else if (!is_group(c, path))
+            problem(c, path, "is not a group (expected a %s group)", kname);
+        else if (looks_like_object(c, kind, path))
+            check_group(c, kind, path);
+        else if (depth >= 8)
+            problem(c, path, "groups nested too deeply below /%s", kname);
+        else {
+            name_list sub;
+            if (list_members(c, path, &sub) < 0)
+                continue;
+            if (sub.n == 0)
+                problem(c, path, "is empty: neither a %s group nor a group of them", kname);
+            free_names(&sub);
+            walk_kind(c, kind, path, depth + 1);
+        }
+    }
+    free_names(&l);
+}
+
+static void check_kind(vctx *c, const cJSON *kind)
+{
+    const char *gpath = jstr(kind, "group"), *kname = jstr(kind, "name");
+    if (!gpath || !kname || !dtx_h5_path_exists(c->file, gpath))
+        return;
+    if (!is_group(c, gpath)) {
+        problem(c, gpath, "is not a group");
+        return;
+    }
+    walk_kind(c, kind, gpath, 0);
+}
+
+/* Notes top-level members that are not part of the layout. */
+static void check_top(vctx *c, const cJSON *kinds)
+{
+    name_list l;
+    if (list_members(c, "/", &l) < 0)
+        return;
+    for (size_t i = 0; i < l.n; i++) {
+        const cJSON *k;
+        int known = 0;
+        cJSON_ArrayForEach(k, kinds)
+        {
+            const char *g = jstr(k, "group");
+            known |= g && g[0] == '/' && strcmp(g + 1, l.names[i]) == 0;
+        }
+        if (!known)
+            out(c, "/%s: note: not part of the dtx layout (not checked)\n", l.names[i]);
+    }
+    free_names(&l);
+}
+
+/* ================================================================= entry */
+
+dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err)
+{
+    vctx c;
+    cJSON *desc = NULL;
+    char *text = NULL;
+    const cJSON *item, *kinds;
+    dtx_status st = DTX_OK;
+    htri_t is;
+    int root_bad = 0;
+
+    dtx_h5_init();
+    memset(&c, 0, sizeof c);
+    c.file = H5I_INVALID_HID;
+    *report = NULL;
+    snprintf(c.fname, sizeof c.fname, "%s", path);
+
+    if (access(path, R_OK) != 0) {
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(errno));
+        out(&c, "%s\n", err ? err->msg : "cannot open");
+        goto done;
+    }
+    is = H5Fis_hdf5(path);
+    if (is <= 0) {
+        st = dtx_seterr(err, is == 0 ? DTX_EFORMAT : DTX_EIO, "%s: %s", path,
+                        is == 0 ? "not an HDF5 file" : "cannot be read as HDF5");
+        out(&c, "%s\n", err ? err->msg : "not an HDF5 file");
+        goto done;
+    }
+    c.file = H5Fopen(path, H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (c.file < 0) {
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot open the HDF5 file", path);
+        out(&c, "%s\n", err ? err->msg : "cannot open");
+        goto done;
+    }
+    text = dtx_h5_layout_json();
+    desc = text ? cJSON_Parse(text) : NULL;
+    kinds = desc ? cJSON_GetObjectItemCaseSensitive(desc, "kinds") : NULL;
+    if (!cJSON_IsArray(kinds)) {
+        st = dtx_seterr(err, text ? DTX_EIO : DTX_ENOMEM,
+                        "the compiled-in layout description cannot be parsed");
+        goto done;
+    }
+
+    /* --------------------------------------------------------- root */
+    reset_current(&c, "/", "root");
+    cJSON_ArrayForEach(item, cJSON_GetObjectItemCaseSensitive(
+                                 cJSON_GetObjectItemCaseSensitive(desc, "root"), "attributes"))
+        check_attribute(&c, "/", item);
+    if (c.cur_problems == 0)
+        out(&c, "/: ok\n");
+    root_bad = c.cur_problems > 0;
+    reset_current(&c, "", "");
+
+    /* ------------------------------------------- groups, kind by kind */
+    cJSON_ArrayForEach(item, kinds) check_kind(&c, item);
+    check_top(&c, kinds);
+
+    if (c.nproblems == 0)
+        out(&c, "%s: valid dtx layout v%d (%d group%s checked)\n", path, DTX_H5_FORMAT_VERSION,
+            c.nobjects, c.nobjects == 1 ? "" : "s");
+    else
+        out(&c, "%s: not a valid dtx layout v%d: %d problem%s (%d group%s checked, %d with "
+                "problems%s)\n",
+            path, DTX_H5_FORMAT_VERSION, c.nproblems, c.nproblems == 1 ? "" : "s", c.nobjects,
+            c.nobjects == 1 ? "" : "s", c.nbad, root_bad ? "; root attributes wrong" : "");
+    if (c.oom) {
+        st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory while validating", path);
+    } else if (c.nproblems > 0) {
+        if (c.nproblems > 1)
+            st = dtx_seterr(err, DTX_EFORMAT, "%.900s (and %d more problem%s)", c.first,
+                            c.nproblems - 1, c.nproblems == 2 ? "" : "s");
+        else
+            st = dtx_seterr(err, DTX_EFORMAT, "%s", c.first);
+    }
+done:
+    reset_current(&c, "", "");
+    cJSON_Delete(desc);
+    free(text);
+    free(c.objs);
+    CLOSE_ID(H5Fclose, c.file);
+    if (c.oom) {
+        free(c.buf);
+        c.buf = NULL;
+    }
+    *report = c.buf;
+    return st;
+}

@@ -1,0 +1,64 @@
+/*
+ * json_schema.h: a small JSON Schema validator for the subset of draft
+ * 2020-12 that dtx's own schemas use.
+ *
+ * Supported keywords:
+ *   type (a name or an array of names; "integer" is a number with no
+ *     fractional part), enum, const,
+ *   properties, required, additionalProperties (a schema, true or false),
+ *   items (one schema for every element), minItems, maxItems,
+ *   minLength, maxLength (counted in bytes),
+ *   minimum, maximum, exclusiveMinimum, exclusiveMaximum (numbers),
+ *   pattern (POSIX extended regular expression, unanchored like ECMA),
+ *   oneOf, anyOf, $ref ("#" or "#/json/pointer", usually "#/$defs/NAME"),
+ *   boolean schemas (true accepts everything, false nothing).
+ * Ignored annotations: $schema, $id, $comment, $defs, title, description,
+ * default, examples.  Any other keyword is a schema error (DTX_EINVAL), so
+ * a schema cannot silently rely on something this validator skips.
+ *
+ * Beyond JSON Schema, two things every dtx document must satisfy are
+ * checked: an object may not repeat a key, and numbers must be finite
+ * (cJSON turns 1e999 into infinity).
+ */
+#ifndef DTX_JSON_SCHEMA_H
+#define DTX_JSON_SCHEMA_H
+
+#include "status.h"
+
+#include <cjson/cJSON.h>
+#include <stddef.h>
+
+/* Validates doc against schema (both parsed by cJSON; schema is the root
+ * that "$ref": "#/..." resolves against).
+ *
+ * Returns DTX_OK when doc is valid.  Otherwise returns DTX_EJOB and writes
+ * to msg (msgsize bytes including the NUL, truncated if needed; msg may be
+ * NULL when msgsize is 0) one sentence naming the place as a JSON pointer,
+ * what was expected and what was found, e.g.
+ *   at /output/dtype: expected one of float32, float64, got "float16"
+ *   at /source: missing required key "mesh"
+ * Only the first error is reported, and it is the first in document
+ * order: a value's own checks (type, enum, const, range, length, item
+ * count) come first, then its members in document order (a repeated key,
+ * an unknown key or a member's own errors, found where the member is), then
+ * the required keys that are missing (as if at the object's closing
+ * brace, in the order of "required"), then oneOf / anyOf.  When no branch
+ * of a oneOf / anyOf matches, the error of the branch that fits best (most
+ * of its "required" keys present, then the deepest error) is reported,
+ * followed by "(for TITLE)" when the branch has a title; when no branch
+ * fits better than the others, one sentence lists every branch's error.
+ *
+ * Returns DTX_EINVAL (with a message) when the schema itself uses an
+ * unsupported keyword, has a bad value for a keyword, an unresolvable $ref
+ * or an invalid pattern, and DTX_ENOMEM when out of memory.
+ *
+ * Thread-safe (no global state; regular expressions are compiled per call).
+ */
+dtx_status dtx_json_validate(const cJSON *schema, const cJSON *doc, char *msg, size_t msgsize);
+
+/* Appends the JSON pointer escape of key (RFC 6901: "~" -> "~0",
+ * "/" -> "~1") preceded by "/" to the NUL-terminated string in buf
+ * (bufsize bytes), truncating if needed.  Used to name places in messages. */
+void dtx_json_pointer_append(char *buf, size_t bufsize, const char *key);
+
+#endif /* DTX_JSON_SCHEMA_H */

@@ -1,0 +1,261 @@
+/* meshfile_util.c: whole-file reading and bounded text scanning for the
+ * mesh and marker readers. */
+#include "meshfile_util.h"
+
+#include <errno.h>
+#include <stdarg.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+dtx_status dtx_file_read_all(const char *path, char **buf, size_t *len, dtx_error *err)
+{
+    FILE *fp = NULL;
+    char *b = NULL;
+    size_t cap, n = 0;
+    struct stat sb;
+    dtx_status st;
+
+    *buf = NULL;
+    *len = 0;
+    fp = fopen(path, "rb");
+    if (!fp)
+        return dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(errno));
+    if (fstat(fileno(fp), &sb) != 0) {
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot stat: %s", path, strerror(errno));
+        goto fail;
+    }
+    if (S_ISDIR(sb.st_mode)) {
+        st = dtx_seterr(err, DTX_EIO, "%s: is a directory", path);
+        goto fail;
+    }
+    /* Regular files are read in one go; pipes and the like grow the buffer. */
+    if (S_ISREG(sb.st_mode) && (uintmax_t)sb.st_size < SIZE_MAX - 1)
+        cap = (size_t)sb.st_size + 1;
+    else
+        cap = 65536;
+    b = malloc(cap);
+    if (!b) {
+        st = dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %zu bytes to read it", path, cap);
+        goto fail;
+    }
+    for (;;) {
+        size_t got;
+        if (n == cap - 1) {
+            /* Full (the file grew, or it is not a regular file): double. */
+            char *nb;
+            if (cap > SIZE_MAX / 2) {
+                st = dtx_seterr(err, DTX_ENOMEM, "%s: file too large", path);
+                goto fail;
+            }
+            nb = realloc(b, cap * 2);
+            if (!nb) {
+                st = dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %zu bytes to read it", path,
+                                cap * 2);
+                goto fail;
+            }
+            b = nb;
+            cap *= 2;
+        }
+        got = fread(b + n, 1, cap - 1 - n, fp);
+        n += got;
+        if (got == 0) {
+            if (ferror(fp)) {
+                st = dtx_seterr(err, DTX_EIO, "%s: read error: %s", path, strerror(errno));
+                goto fail;
+            }
+            break;
+        }
+    }
+    fclose(fp);
+    b[n] = '\0';
+    *buf = b;
+    *len = n;
+    return DTX_OK;
+
+fail:
+    free(b);
+    if (fp)
+        fclose(fp);
+    return st;
+}
+
+void dtx_warnf(const dtx_warner *w, const char *fmt, ...)
+{
+    char msg[1024];
+    va_list ap;
+    if (!w || !w->fn)
+        return;
+    va_start(ap, fmt);
+    vsnprintf(msg, sizeof msg, fmt, ap);
+    va_end(ap);
+    w->fn(w->ctx, msg);
+}
+
+int dtx_has_nul(const char *buf, size_t len) { return len > 0 && memchr(buf, '\0', len) != NULL; }
+
+long dtx_find_long_line(const char *buf, size_t len, size_t max)
+{
+    dtx_lines it;
+    const char *b, *e;
+    dtx_lines_init(&it, buf, len);
+    while (dtx_lines_next(&it, &b, &e))
+        if ((size_t)(e - b) > max)
+            return it.line;
+    return 0;
+}
+
+void dtx_lines_init(dtx_lines *it, const char *buf, size_t len)
+{
+    it->cur = buf;
+    it->end = buf + len;
+    it->line = 0;
+    if (len >= 3 && memcmp(buf, "\xEF\xBB\xBF", 3) == 0)
+        it->cur += 3;
+}
+
+int dtx_lines_next(dtx_lines *it, const char **b, const char **e)
+{
+    const char *nl;
+    if (it->cur >= it->end)
+        return 0;
+    *b = it->cur;
+    nl = memchr(it->cur, '\n', (size_t)(it->end - it->cur));
+    if (nl) {
+        *e = nl;
+        it->cur = nl + 1;
+    } else {
+        *e = it->end;
+        it->cur = it->end;
+    }
+    if (*e > *b && (*e)[-1] == '\r')
+        (*e)--;
+    it->line++;
+    return 1;
+}
+
+const char *dtx_next_token(const char **p, const char *e, size_t *n)
+{
+    const char *s = *p, *t;
+    while (s < e && dtx_is_blank(*s))
+        s++;
+    if (s >= e) {
+        *p = e;
+        *n = 0;
+        return NULL;
+    }
+    t = s;
+    while (t < e && !dtx_is_blank(*t))
+        t++;
+    *p = t;
+    *n = (size_t)(t - s);
+    return s;
+}
+
+int dtx_parse_double(const char *s, size_t n, double *out)
+{
+    char tmp[DTX_MAX_NUMBER_LEN + 1];
+    char *endp;
+    if (n == 0 || n > DTX_MAX_NUMBER_LEN)
+        return -1;
+    /* strtod skips leading white space itself; a token never has any, but
+     * reject it anyway so "whole number" means exactly these characters. */
+    if (dtx_is_blank(s[0]) || s[0] == '\n')
+        return -1;
+    memcpy(tmp, s, n);
+    tmp[n] = '\0';
+    errno = 0;
+    *out = strtod(tmp, &endp);
+    if (endp != tmp + n)
+        return -1;
+    /* ERANGE: overflow gives +-HUGE_VAL (inf, rejected by the callers as
+     * non-finite); underflow gives a tiny or zero value, which is fine. */
+    return 0;
+}
+
+int dtx_parse_int64(const char *s, size_t n, int64_t *out)
+{
+    size_t i = 0;
+    int neg = 0, over = 0;
+    uint64_t v = 0, lim;
+    if (n == 0 || n > DTX_MAX_NUMBER_LEN)
+        return -1;
+    if (s[0] == '+' || s[0] == '-') {
+        neg = s[0] == '-';
+        i = 1;
+    }
+    if (i == n)
+        return -1;
+    lim = neg ? (uint64_t)INT64_MAX + 1 : (uint64_t)INT64_MAX;
+    for (; i < n; i++) {
+        unsigned d = (unsigned char)s[i] - '0';
+        if (d > 9)
+            return -1;
+        if (!over && v > (lim - d) / 10)
+            over = 1;
+        if (!over)
+            v = v * 10 + d;
+    }
+    if (over) {
+        *out = neg ? INT64_MIN : INT64_MAX;
+        return -2;
+    }
+    if (neg)
+        *out = v == (uint64_t)INT64_MAX + 1 ? INT64_MIN : -(int64_t)v;
+    else
+        *out = (int64_t)v;
+    return 0;
+}
+
+const char *dtx_show_token(const char *s, size_t n, char *out, size_t outsz)
+{
+    size_t k = 0, max = outsz - 1;
+    int cut = 0;
+    if (n > max) {
+        max = outsz - 4;
+        cut = 1;
+    }
+    for (; k < n && k < max; k++) {
+        unsigned char c = (unsigned char)s[k];
+        out[k] = (c >= 0x20 && c < 0x7f) ? (char)c : '?';
+    }
+    if (cut) {
+        memcpy(out + k, "...", 3);
+        k += 3;
+    }
+    out[k] = '\0';
+    return out;
+}
+
+/* ------------------------------------------------------------------ dispatch */
+
+/* 1 if path ends with ext (".obj"), ignoring ASCII case. */
+static int has_ext(const char *path, const char *ext)
+{
+    size_t n = strlen(path), m = strlen(ext);
+    if (n < m)
+        return 0;
+    for (size_t i = 0; i < m; i++) {
+        char c = path[n - m + i];
+        if (c >= 'A' && c <= 'Z')
+            c = (char)(c - 'A' + 'a');
+        if (c != ext[i])
+            return 0;
+    }
+    return 1;
+}
+
+dtx_status dtx_mesh_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (has_ext(path, ".obj"))
+        return dtx_obj_read(path, out, w, err);
+    if (has_ext(path, ".ply"))
+        return dtx_ply_read(path, out, w, err);
+    if (has_ext(path, ".off"))
+        return dtx_off_read(path, out, w, err);
+    return dtx_seterr(err, DTX_EINVAL,
+                      "%s: unknown mesh file type (expected the extension .obj, .ply or .off)",
+                      path);
+}

@@ -1,0 +1,62 @@
+#!/usr/bin/env bash
+# The main job end to end on the bundled cat -> lion data: import, run under
+# mpirun at 1, 2 and 3 ranks and 1 and 2 threads (float64 output), check that
+# every run gives the same result to 1e-12 relative, validate, export.
+set -euo pipefail
+D="$DTX_BUILD/data/sumner-cat-lion"
+W="$DTX_TESTDATA"
+fails=0
+check() { # check DESCRIPTION COMMAND...
+    local what=$1; shift
+    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
+}
+
+"$DTX" import mesh "$D/source/cat-reference.obj" -o "$W/cl.h5" --name cat
+"$DTX" import mesh "$D/target/lion-reference.obj" -o "$W/cl.h5" --name lion
+mkdir -p "$W/poses"
+for k in 1 2 3 4 5 6 7 8 9; do ln -s "$D/source/cat-0$k.obj" "$W/poses/cat-$k.obj"; done
+"$DTX" import sequence "$W/poses" -o "$W/cl.h5" --name cat-poses --mesh /meshes/cat --dtype float64
+"$DTX" import markers "$D/markers.csv" --index-base 0 -o "$W/cl.h5" --name cat-lion \
+    --source /meshes/cat --target /meshes/lion
+
+job() { # job OUTPUT [EXTRA-OUTPUT-KEYS]
+    cat > "$W/$1.json" <<JOB
+{
+  "dtx_job": 1,
+  "method": "sp04",
+  "source": {"file": "cl.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
+  "targets": [{"name": "lion", "file": "cl.h5", "mesh": "/meshes/lion",
+               "markers": {"file": "cl.h5", "path": "/markers/cat-lion"}}],
+  "output": {"file": "$1.h5", "dtype": "float64", "block_frames": 8${2:-}}
+}
+JOB
+}
+job np1
+job np2 ', "export_obj_dir": "obj"'
+job np3
+job np1t2
+OMP_NUM_THREADS=1 mpirun -np 1 "$DTX" run --quiet "$W/np1.json"
+OMP_NUM_THREADS=1 mpirun -np 2 "$DTX" run "$W/np2.json"
+OMP_NUM_THREADS=1 mpirun --oversubscribe -np 3 "$DTX" run --quiet "$W/np3.json"
+OMP_NUM_THREADS=2 mpirun -np 1 "$DTX" run --quiet "$W/np1t2.json"
+
+R=/results/lion/cat-poses
+check "1 rank == 2 ranks (1e-12)" "$DTX" diff "$W/np1.h5" "$W/np2.h5" $R --tol 1e-12
+check "1 rank == 3 ranks (1e-12)" "$DTX" diff "$W/np1.h5" "$W/np3.h5" $R --tol 1e-12
+check "1 thread == 2 threads (1e-12)" "$DTX" diff "$W/np1.h5" "$W/np1t2.h5" $R --tol 1e-12
+check "result file validates" "$DTX" validate "$W/np2.h5"
+check "9 OBJ frames exported by the job" test "$(ls "$W/obj/lion/cat-poses" | wc -l)" -eq 9
+check "summary written" grep -q '"frames": 9' "$W/np2.h5.summary.json"
+check "no temporary file left" test -z "$(ls "$W" | grep '\.tmp' || true)"
+
+# A second run reuses the correspondence cached in the output.
+OMP_NUM_THREADS=1 mpirun -np 1 "$DTX" run "$W/np1.json" 2> "$W/rerun.log"
+check "cached correspondence reused" grep -q "reused" "$W/rerun.log"
+check "rerun gives the same result" "$DTX" diff "$W/np1.h5" "$W/np2.h5" $R --tol 1e-12
+
+"$DTX" export "$W/np1.h5" $R --obj-dir "$W/exported"
+check "export writes 9 frames" test "$(ls "$W/exported" | wc -l)" -eq 9
+check "diff notices a different result" bash -c "! '$DTX' diff '$W/np1.h5' '$W/np1.h5' /results/nope 2>/dev/null"
+
+echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
+[ "$fails" -eq 0 ]
