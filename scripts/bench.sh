@@ -45,6 +45,7 @@ fps() { sed -n 's/.*"frames_per_second": \([0-9.]*\).*/\1/p' "$work/long-result.
 line() { sed -n 's/.*"seconds": \(.*\),$/\1/p' "$work/long-result.h5.summary.json"; }
 for cfg in "1 1" "2 1" "1 2"; do
     set -- $cfg
-    OMP_NUM_THREADS=$2 mpirun --oversubscribe -np "$1" build/dtx run --quiet "$work/long.json"
+    # OpenMPI binds each rank to one core by default: threads need --bind-to none.
+    OMP_NUM_THREADS=$2 mpirun --bind-to none --oversubscribe -np "$1" build/dtx run --quiet "$work/long.json"
     printf '  %s rank(s) x %s thread(s): %8.1f frames/s   %s\n' "$1" "$2" "$(fps)" "$(line)"
 done
