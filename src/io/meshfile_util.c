@@ -246,6 +246,41 @@ static int has_ext(const char *path, const char *ext)
     return 1;
 }
 
+int dtx_tri_push(int32_t **F, size_t *cap, int64_t *nt, int32_t a, int32_t b, int32_t c)
+{
+    if ((size_t)*nt == *cap) {
+        size_t nc = *cap ? *cap * 2 : 8;
+        int32_t *nf;
+        if (nc > SIZE_MAX / (3 * sizeof **F))
+            return -1;
+        nf = realloc(*F, nc * 3 * sizeof **F);
+        if (!nf)
+            return -1;
+        *F = nf;
+        *cap = nc;
+    }
+    (*F)[3 * *nt] = a;
+    (*F)[3 * *nt + 1] = b;
+    (*F)[3 * *nt + 2] = c;
+    (*nt)++;
+    return 0;
+}
+
+dtx_status dtx_mesh_read_with(const char *path, dtx_mesh_parse_fn parse, dtx_mesh *out,
+                              const dtx_warner *w, dtx_error *err)
+{
+    char *buf;
+    size_t len;
+    dtx_status st;
+    memset(out, 0, sizeof *out);
+    st = dtx_file_read_all(path, &buf, &len, err);
+    if (st != DTX_OK)
+        return st;
+    st = parse(path, buf, len, out, w, err);
+    free(buf);
+    return st;
+}
+
 dtx_status dtx_mesh_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
 {
     memset(out, 0, sizeof *out);

@@ -25,6 +25,20 @@
  * case *buf is NULL. */
 dtx_status dtx_file_read_all(const char *path, char **buf, size_t *len, dtx_error *err);
 
+/* Appends triangle (a, b, c) to the growable array *F of *cap triangles of
+ * which *nt are used (doubling the capacity when full, from 8 when empty).
+ * Returns 0, or -1 on overflow or allocation failure (*F left intact). */
+int dtx_tri_push(int32_t **F, size_t *cap, int64_t *nt, int32_t a, int32_t b, int32_t c);
+
+/* A reader's in-memory parser (dtx_obj_parse and its PLY/OFF twins). */
+typedef dtx_status (*dtx_mesh_parse_fn)(const char *name, const char *buf, size_t len,
+                                        dtx_mesh *out, const dtx_warner *w, dtx_error *err);
+
+/* Reads the whole file at path and hands it to parse (named by path in
+ * messages); *out is zeroed first and left empty on failure. */
+dtx_status dtx_mesh_read_with(const char *path, dtx_mesh_parse_fn parse, dtx_mesh *out,
+                              const dtx_warner *w, dtx_error *err);
+
 /* Formats a warning (printf-style) and hands it to w->fn; does nothing when
  * w or w->fn is NULL. */
 void dtx_warnf(const dtx_warner *w, const char *fmt, ...)

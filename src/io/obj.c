@@ -274,16 +274,7 @@ fail:
 
 dtx_status dtx_obj_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
 {
-    char *buf;
-    size_t len;
-    dtx_status st;
-    memset(out, 0, sizeof *out);
-    st = dtx_file_read_all(path, &buf, &len, err);
-    if (st != DTX_OK)
-        return st;
-    st = dtx_obj_parse(path, buf, len, out, w, err);
-    free(buf);
-    return st;
+    return dtx_mesh_read_with(path, dtx_obj_parse, out, w, err);
 }
 
 /* ------------------------------------------------------------------ writing */

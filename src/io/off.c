@@ -41,26 +41,6 @@ static int off_keyword(const char *t, size_t n)
     return i == n ? 1 : 0;
 }
 
-static int push_tri(int32_t **F, size_t *cap, int64_t *nt, int32_t a, int32_t b, int32_t c)
-{
-    if ((size_t)*nt == *cap) {
-        size_t nc = *cap * 2;
-        int32_t *nf;
-        if (nc > SIZE_MAX / (3 * sizeof **F))
-            return -1;
-        nf = realloc(*F, nc * 3 * sizeof **F);
-        if (!nf)
-            return -1;
-        *F = nf;
-        *cap = nc;
-    }
-    (*F)[3 * *nt] = a;
-    (*F)[3 * *nt + 1] = b;
-    (*F)[3 * *nt + 2] = c;
-    (*nt)++;
-    return 0;
-}
-
 dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
                          const dtx_warner *w, dtx_error *err)
 {
@@ -243,7 +223,7 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
                                     (int)INT32_MAX);
                     goto fail;
                 }
-                if (push_tri(&F, &fcap, &nt, (int32_t)first, (int32_t)prev, (int32_t)vi) != 0) {
+                if (dtx_tri_push(&F, &fcap, &nt, (int32_t)first, (int32_t)prev, (int32_t)vi) != 0) {
                     st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", name);
                     goto fail;
                 }
@@ -274,14 +254,5 @@ fail:
 
 dtx_status dtx_off_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
 {
-    char *buf;
-    size_t len;
-    dtx_status st;
-    memset(out, 0, sizeof *out);
-    st = dtx_file_read_all(path, &buf, &len, err);
-    if (st != DTX_OK)
-        return st;
-    st = dtx_off_parse(path, buf, len, out, w, err);
-    free(buf);
-    return st;
+    return dtx_mesh_read_with(path, dtx_off_parse, out, w, err);
 }

@@ -422,18 +422,6 @@ static dtx_status check_header(const char *name, const ply_header *h, size_t dat
 
 /* ------------------------------------------------------------------ body */
 
-/* Appends triangle (a, b, c) to *F (capacity *cap triangles, *nt used). */
-static int push_tri(int32_t **F, size_t *cap, int64_t *nt, int32_t a, int32_t b, int32_t c)
-{
-    if ((size_t)*nt == *cap && grow((void **)F, cap, *cap + 1, 3 * sizeof **F) != 0)
-        return -1;
-    (*F)[3 * *nt] = a;
-    (*F)[3 * *nt + 1] = b;
-    (*F)[3 * *nt + 2] = c;
-    (*nt)++;
-    return 0;
-}
-
 dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
                          const dtx_warner *w, dtx_error *err)
 {
@@ -551,7 +539,7 @@ dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh
                                             (int)INT32_MAX);
                             goto fail;
                         }
-                        if (push_tri(&F, &fcap, &nt, (int32_t)first, (int32_t)prev, (int32_t)iv) !=
+                        if (dtx_tri_push(&F, &fcap, &nt, (int32_t)first, (int32_t)prev, (int32_t)iv) !=
                             0) {
                             st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", name);
                             goto fail;
@@ -601,14 +589,5 @@ fail:
 
 dtx_status dtx_ply_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
 {
-    char *buf;
-    size_t len;
-    dtx_status st;
-    memset(out, 0, sizeof *out);
-    st = dtx_file_read_all(path, &buf, &len, err);
-    if (st != DTX_OK)
-        return st;
-    st = dtx_ply_parse(path, buf, len, out, w, err);
-    free(buf);
-    return st;
+    return dtx_mesh_read_with(path, dtx_ply_parse, out, w, err);
 }
