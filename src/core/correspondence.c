@@ -237,7 +237,7 @@ static int normal_filter(const void *ctx, int32_t prim)
 /* ------------------------------------------------------------------ */
 
 static dtx_status deform_source(const dtx_mesh *src, const double *S0, const double *Tn,
-                                const dtx_mesh *tgt, const dtx_bvh *tbvh,
+                                const dtx_bvh *tbvh,
                                 const double *tnormals, const dtx_markers *mk,
                                 const dtx_corr_params *prm, double *X, int *solves,
                                 dtx_error *err)
@@ -403,7 +403,6 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
 nomem:
     st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
 fail:
-    (void)tgt;
     cholmod_free_dense(&Xs, &cc);
     cholmod_free_dense(&B, &cc);
     cholmod_free_factor(&L, &cc);
@@ -658,7 +657,7 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
         goto fail;
     }
-    st = deform_source(src, S0, Tn, tgt, tbvh, tnormals, markers, prm, X, &out->solves, err);
+    st = deform_source(src, S0, Tn, tbvh, tnormals, markers, prm, X, &out->solves, err);
     if (st != DTX_OK)
         goto fail;
     st = pair_triangles(src, X, tgt, Tn, prm, out, err);

@@ -68,12 +68,6 @@ typedef int (*dtx_bvh_filter)(const void *ctx, int32_t prim);
 int32_t dtx_bvh_closest(const dtx_bvh *bvh, const double p[3], double max_dist,
                         dtx_bvh_filter filter, const void *ctx, double closest[3], double *d2);
 
-/* Every allowed primitive within `radius` of p: writes up to cap indices
- * (in no particular order) to out and returns how many there are (which
- * may exceed cap). */
-int64_t dtx_bvh_within(const dtx_bvh *bvh, const double p[3], double radius,
-                       dtx_bvh_filter filter, const void *ctx, int32_t *out, int64_t cap);
-
 /* Closest point to p on triangle (a, b, c); returns the squared distance. */
 double dtx_closest_point_triangle(const double p[3], const double a[3], const double b[3],
                                   const double c[3], double out[3]);
@@ -142,6 +136,11 @@ typedef enum {
 } dtx_anchor;
 
 typedef struct dtx_sp04_plan dtx_sp04_plan;
+
+/* Frames are solved in groups of this many, each group with one
+ * multi-column back-substitution; callers that split a sequence (ranks,
+ * blocks) at multiples of it get the same arithmetic for every frame. */
+#define DTX_SP04_SOLVE_GROUP 8
 
 /* Precompute: builds the target's normal equations sum_pairs G_t^T G_t,
  * removes the anchor/pinned vertices and factors it once (CHOLMOD,

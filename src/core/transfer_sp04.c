@@ -24,7 +24,7 @@
 #include <omp.h>
 #endif
 
-#define DTX_SOLVE_GROUP 8
+#define DTX_SOLVE_GROUP DTX_SP04_SOLVE_GROUP
 
 typedef struct {
     cholmod_common cc;

@@ -6,15 +6,16 @@
 #ifndef DTX_DRIVER_H
 #define DTX_DRIVER_H
 
+#include "dtx_core.h"
 #include "status.h"
 
 #include <mpi.h>
 
 #include <stdint.h>
 
-/* Frame-group size the driver aligns rank ranges to (the core's solve
- * group, times a small factor). */
-#define DTX_FRAME_ALIGN 8
+/* Frame-group size the driver aligns rank ranges and blocks to: the core's
+ * solve group, so no group is split between ranks. */
+#define DTX_FRAME_ALIGN DTX_SP04_SOLVE_GROUP
 
 /* Frames [first, first + count) owned by `rank` of `nranks` for a sequence
  * of nframes frames, dealt in whole groups of `group` frames.  Every frame

@@ -601,7 +601,6 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             meta.source_mesh = srcdesc;
             meta.target_mesh = tgtdesc;
             meta.markers = mkdesc;
-            meta.parameters = rank == 0 && params ? params : "";
             st = dtx_h5_write_mesh(out, mesh_path, &tgt, tgtdesc, err);
             if (agree(comm, st, err) != DTX_OK)
                 goto target_fail;
