@@ -27,7 +27,7 @@ static const char usage_text[] =
     "                      [--dtype float32|float64]\n"
     "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
     "                     [--source /meshes/A] [--target /meshes/B]\n"
-    "  dtx run JOB.json [--quiet] [--summary FILE.json]     (alone or under mpirun)\n"
+    "  dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]   (alone or under mpirun)\n"
     "  dtx export FILE.h5 /results/TARGET/SEQUENCE --obj-dir DIR\n"
     "  dtx validate FILE.h5\n"
     "  dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]   (exit 1 if they differ)\n"
@@ -498,6 +498,8 @@ static int cmd_run(int argc, char **argv)
     for (int i = 2; i < argc; i++)
         if (strcmp(argv[i], "--quiet") == 0)
             o.quiet = 1;
+        else if (strcmp(argv[i], "--resume") == 0)
+            o.resume = 1;
     o.summary_path = opt(argc, argv, "--summary");
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);

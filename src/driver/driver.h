@@ -27,6 +27,7 @@ void dtx_partition_frames(int64_t nframes, int group, int nranks, int rank, int6
 typedef struct {
     int quiet;          /* no progress or summary on stderr */
     const char *summary_path; /* run summary JSON, or NULL for OUTPUT.summary.json */
+    int resume;         /* continue OUTPUT.partial of an interrupted run of the same job */
 } dtx_run_opts;
 
 /* Runs the job file at job_path on every rank of comm (MPI must be

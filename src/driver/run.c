@@ -1,12 +1,29 @@
 /*
  * run.c: `dtx run`, the batch run of a job across MPI ranks.
  *
- * Phases, in order: load the job (rank 0, then broadcast) -> read and check
- * the inputs (every rank, read-only) -> per target: correspondence (rank 0,
- * or the output's cache; broadcast) -> factor (every rank) -> per sequence:
- * frame loop (each rank its own frames, in blocks: read, transfer, write
- * collectively) -> finish (mark complete, rename the temporary output over
- * the real one) -> summary.
+ * Phases, in order (dtx_run_job reads as this list):
+ *   1. load the job (rank 0 reads and checks it, every rank parses the same text);
+ *   2. read the inputs (every rank: source mesh, sequence shapes, targets, markers);
+ *   3. decide what the output file is: a fresh OUTPUT.partial, the partial of an
+ *      interrupted run to continue (--resume), or nothing to do;
+ *   4. correspondences: reused from the partial or the old output when their key
+ *      (a hash of both meshes, the markers and the parameters) matches, else
+ *      computed, different targets on different ranks, then broadcast;
+ *   5. open the output: create every mesh, correspondence and result up front
+ *      (so the frame loop only writes raw data into allocated space), or reopen
+ *      the partial and read which frames are done;
+ *   6. per target: factor once (every rank); per sequence: the frame groups not
+ *      yet done are dealt to the ranks and each rank reads, transfers and writes
+ *      its groups in blocks (collective writes);
+ *   7. finish: mark results complete, close, rename OUTPUT.partial to OUTPUT;
+ *   8. summary (JSON) and the last progress line.
+ *
+ * Crash safety: every object of the output is created and flushed before the
+ * first frame is written, with its space allocated, so a process killed in
+ * the frame loop leaves metadata that was complete at the flush and raw
+ * frames whose frame_done flag is written only after their positions.  The
+ * real output name appears only by the final rename, after every result
+ * passed its completeness check.
  *
  * Failure handling: after every phase the ranks agree on the outcome
  * (agree()), so a failure on one rank ends the job on every rank with that
@@ -18,13 +35,16 @@
 #include "h5layout.h"
 #include "job.h"
 #include "meshfile.h"
+#include "progress.h"
 
 #include <errno.h>
 #include <limits.h>
 #include <math.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
 #ifdef _OPENMP
@@ -39,15 +59,67 @@ typedef struct {
     double read, correspond, factor, transfer, write, total;
 } phase_times;
 
+/* Residual statistics of the frames transferred by this run. */
 typedef struct {
     int64_t frames;
-    double res_sum, res_max;
+    double sum, sumsq, min, max;
 } run_stats;
 
+typedef enum { OUT_FRESH, OUT_RESUME, OUT_DONE } out_mode;
+
+typedef struct {
+    const dtx_job_target *tj;
+    dtx_mesh mesh;
+    dtx_markers mk;
+    dtx_corr corr;
+    char key[17];
+    int reused;      /* correspondence found in a cache */
+    int owner;       /* rank that computes it */
+    char mesh_path[DTX_H5_PATH_MAX], corr_path[DTX_H5_PATH_MAX];
+} target_ctx;
+
+typedef struct {
+    const char *path; /* HDF5 path in the source file */
+    const char *name; /* result name: the path's last component */
+    dtx_h5_seq seq;
+    int open;
+} seq_ctx;
+
+typedef struct {
+    dtx_h5_result res;
+    int open;
+    int finished;   /* already complete in the resumed partial */
+    run_stats st;
+} result_ctx;
+
+typedef struct {
+    MPI_Comm comm;
+    int rank, nranks, nthreads;
+    const dtx_run_opts *opts;
+    dtx_job job;
+    dtx_mesh src;
+    hid_t src_file, out;
+    char partial[4200];
+    char run_key[17];
+    out_mode mode;
+    int nt, ns;
+    target_ctx *tg;
+    seq_ctx *sq;
+    result_ctx *rs; /* nt x ns, result of target t and sequence s at t * ns + s */
+    phase_times tm;
+    run_stats stats;
+    int64_t frames_todo, frames_skipped, frames_done; /* global, known on rank 0 */
+    dtx_progress prog;
+} run_state;
+
+#define RESULT(r, t, s) (&(r)->rs[(size_t)(t) * (size_t)(r)->ns + (size_t)(s)])
+
 /* ------------------------------------------------------------------ */
-/* Collective agreement on failures                                    */
+/* Small helpers                                                       */
 /* ------------------------------------------------------------------ */
 
+/* Collective agreement on failures: DTX_OK when every rank succeeded, else
+ * the status and message of the lowest failing rank, on every rank. */
 static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
 {
     int rank, mine, first;
@@ -76,7 +148,24 @@ static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
 
 static double wtime(void) { return MPI_Wtime(); }
 
-/* mkdir -p of the directory part of path (dir_only == 0) or of path. */
+/* A message from rank 0 on stderr (not with --quiet). */
+static void say(run_state *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
+static void say(run_state *r, const char *fmt, ...)
+{
+    char line[2048];
+    va_list ap;
+    if (r->rank != 0 || r->opts->quiet)
+        return;
+    va_start(ap, fmt);
+    vsnprintf(line, sizeof line, fmt, ap);
+    va_end(ap);
+    if (r->prog.out)
+        dtx_progress_message(&r->prog, line);
+    else
+        fprintf(stderr, "%s\n", line);
+}
+
+/* mkdir -p of the directory part of path (dir_only != 0) or of path. */
 static dtx_status make_dirs(const char *path, int dir_only, dtx_error *err)
 {
     char buf[4096];
@@ -110,6 +199,32 @@ static const char *base_name(const char *path)
     return s ? s + 1 : path;
 }
 
+static void stats_init(run_stats *s)
+{
+    memset(s, 0, sizeof *s);
+    s->min = INFINITY;
+    s->max = -INFINITY;
+}
+
+static void stats_add(run_stats *s, double v)
+{
+    s->frames++;
+    s->sum += v;
+    s->sumsq += v * v;
+    s->min = v < s->min ? v : s->min;
+    s->max = v > s->max ? v : s->max;
+}
+
+/* The statistics of all ranks, on rank 0. */
+static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
+{
+    MPI_Reduce(&mine->frames, &all->frames, 1, MPI_INT64_T, MPI_SUM, 0, comm);
+    MPI_Reduce(&mine->sum, &all->sum, 1, MPI_DOUBLE, MPI_SUM, 0, comm);
+    MPI_Reduce(&mine->sumsq, &all->sumsq, 1, MPI_DOUBLE, MPI_SUM, 0, comm);
+    MPI_Reduce(&mine->min, &all->min, 1, MPI_DOUBLE, MPI_MIN, 0, comm);
+    MPI_Reduce(&mine->max, &all->max, 1, MPI_DOUBLE, MPI_MAX, 0, comm);
+}
+
 /* ------------------------------------------------------------------ */
 /* Inputs                                                              */
 /* ------------------------------------------------------------------ */
@@ -126,8 +241,7 @@ static dtx_status read_mesh_from(const char *file, const char *group, dtx_mesh *
     return st;
 }
 
-static dtx_status read_markers(const dtx_job_target *t, const char *what, dtx_markers *mk,
-                               dtx_error *err)
+static dtx_status read_markers(const dtx_job_target *t, dtx_markers *mk, dtx_error *err)
 {
     dtx_status st;
     if (t->markers.csv)
@@ -141,7 +255,7 @@ static dtx_status read_markers(const dtx_job_target *t, const char *what, dtx_ma
         dtx_h5_close(&f, NULL);
         return st;
     }
-    return dtx_seterr(err, DTX_EJOB, "%s: no markers given", what);
+    return dtx_seterr(err, DTX_EJOB, "target \"%s\": no markers given", t->name);
 }
 
 /* The cache key of a correspondence: everything that determines it. */
@@ -172,53 +286,16 @@ static void corr_params_from_job(const dtx_job *job, dtx_corr_params *p)
     p->max_angle_deg = job->sp04.max_angle_deg;
 }
 
-/* Rank 0: the correspondence of one target, from the old output's cache
- * when its key matches, else computed. */
-static dtx_status rank0_correspondence(const dtx_job *job, const dtx_mesh *src,
-                                       const dtx_mesh *tgt, const dtx_markers *mk,
-                                       const char *key, dtx_corr *corr, int *cached,
-                                       dtx_error *err)
-{
-    dtx_corr_params prm;
-    *cached = 0;
-    if (access(job->output_file, R_OK) == 0) {
-        hid_t f = H5I_INVALID_HID;
-        dtx_error e2;
-        if (dtx_h5_open(job->output_file, MPI_COMM_NULL, 0, &f, &e2) == DTX_OK) {
-            char *group = NULL;
-            if (dtx_h5_find_corr_by_key(f, key, &group, &e2) == DTX_OK && group) {
-                dtx_h5_corr c;
-                if (dtx_h5_read_corr(f, group, src->nv, src->nf, tgt->nf, &c, &e2) == DTX_OK) {
-                    memset(corr, 0, sizeof *corr);
-                    corr->npairs = c.npairs;
-                    corr->pairs = c.pairs;
-                    corr->deformed_src = c.deformed_src;
-                    corr->nv_src = c.nv_s;
-                    c.pairs = NULL;
-                    c.deformed_src = NULL;
-                    dtx_h5_corr_free(&c);
-                    *cached = 1;
-                }
-            }
-            free(group);
-            dtx_h5_close(&f, NULL);
-        }
-        if (*cached)
-            return DTX_OK;
-    }
-    corr_params_from_job(job, &prm);
-    return dtx_sp04_correspond(src, tgt, mk, &prm, corr, err);
-}
-
-/* Broadcast of a correspondence from rank 0 (other ranks allocate). */
-static dtx_status bcast_corr(MPI_Comm comm, dtx_corr *c, int32_t nv_s, dtx_error *err)
+/* Broadcast of a correspondence from root (the other ranks allocate). */
+static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s, dtx_error *err)
 {
     int rank;
     long long np = c->npairs;
     int ok = 1;
     MPI_Comm_rank(comm, &rank);
-    MPI_Bcast(&np, 1, MPI_LONG_LONG, 0, comm);
-    if (rank != 0) {
+    MPI_Bcast(&np, 1, MPI_LONG_LONG, root, comm);
+    if (rank != root) {
+        dtx_corr_free(c);
         memset(c, 0, sizeof *c);
         c->npairs = np;
         c->nv_src = nv_s;
@@ -231,149 +308,14 @@ static dtx_status bcast_corr(MPI_Comm comm, dtx_corr *c, int32_t nv_s, dtx_error
     /* Chunks below 2^31 elements for MPI's int counts. */
     for (long long off = 0; off < 2 * np; off += 1 << 30) {
         long long n = 2 * np - off < (1 << 30) ? 2 * np - off : (1 << 30);
-        MPI_Bcast(c->pairs + off, (int)n, MPI_INT32_T, 0, comm);
+        MPI_Bcast(c->pairs + off, (int)n, MPI_INT32_T, root, comm);
     }
-    MPI_Bcast(c->deformed_src, 3 * nv_s, MPI_DOUBLE, 0, comm);
+    MPI_Bcast(c->deformed_src, 3 * nv_s, MPI_DOUBLE, root, comm);
     return DTX_OK;
 }
 
 /* ------------------------------------------------------------------ */
-/* One sequence onto one target                                        */
-/* ------------------------------------------------------------------ */
-
-static dtx_status transfer_sequence(MPI_Comm comm, const dtx_job *job, hid_t src_file,
-                                    const char *seq_path, const dtx_mesh *src,
-                                    const dtx_job_target *tgtj, const dtx_mesh *tgt,
-                                    dtx_sp04_plan *plan, hid_t out, const char *corr_path,
-                                    phase_times *tm, run_stats *stats, dtx_error *err)
-{
-    int rank, nranks;
-    dtx_status st = DTX_OK;
-    dtx_h5_seq seq;
-    dtx_h5_result res;
-    char res_path[DTX_H5_PATH_MAX], tgt_path[DTX_H5_PATH_MAX], src_desc[4096], *params = NULL;
-    char objdir[4096];
-    int64_t first = 0, count = 0, maxcount = 0;
-    int32_t block = job->block_frames;
-    double *Xs = NULL, *Xt = NULL, *resid = NULL;
-    int have_res = 0;
-
-    MPI_Comm_rank(comm, &rank);
-    MPI_Comm_size(comm, &nranks);
-    memset(&seq, 0, sizeof seq);
-    memset(&res, 0, sizeof res);
-    /* One group per target holding one result per sequence. */
-    snprintf(res_path, sizeof res_path, "/results/%s/%s", tgtj->name, base_name(seq_path));
-    snprintf(tgt_path, sizeof tgt_path, "/meshes/%s", tgtj->name);
-    snprintf(src_desc, sizeof src_desc, "%s:%s", job->source_file, seq_path);
-    objdir[0] = '\0';
-
-    st = dtx_h5_seq_open(src_file, seq_path, &seq, err);
-    if (st == DTX_OK && seq.nv != src->nv)
-        st = dtx_seterr(err, DTX_EFORMAT,
-                        "%s: %s has %d vertices per frame but the source mesh %s has %d",
-                        job->source_file, seq_path, (int)seq.nv, job->source_mesh, (int)src->nv);
-    if (agree(comm, st, err) != DTX_OK)
-        goto done;
-
-    /* Blocks are whole solve groups, so frame arithmetic never depends on
-     * how frames are split over ranks. */
-    if (block % DTX_FRAME_ALIGN)
-        block += DTX_FRAME_ALIGN - block % DTX_FRAME_ALIGN;
-    dtx_partition_frames(seq.nframes, DTX_FRAME_ALIGN, nranks, rank, &first, &count);
-    for (int r = 0; r < nranks; r++) {
-        int64_t f0, c0;
-        dtx_partition_frames(seq.nframes, DTX_FRAME_ALIGN, nranks, r, &f0, &c0);
-        maxcount = c0 > maxcount ? c0 : maxcount;
-    }
-
-    if (job->export_obj_dir) {
-        snprintf(objdir, sizeof objdir, "%s/%s/%s", job->export_obj_dir, tgtj->name,
-                 base_name(seq_path));
-        st = rank == 0 ? make_dirs(objdir, 0, err) : DTX_OK;
-        if (agree(comm, st, err) != DTX_OK)
-            goto done;
-    }
-
-    params = dtx_job_params_json(job);
-    {
-        dtx_h5_provenance prov;
-        prov.method = "sp04";
-        prov.job = job->text;
-        prov.parameters = params ? params : "{}";
-        prov.source_sequence = src_desc;
-        prov.target_mesh = tgt_path;
-        prov.correspondence = corr_path;
-        st = dtx_h5_result_create(out, res_path, &prov, seq.nframes, tgt->nv,
-                                  job->output_dtype == DTX_DTYPE_FLOAT64, DTX_FRAME_ALIGN, 0,
-                                  &res, err);
-    }
-    if (agree(comm, st, err) != DTX_OK)
-        goto done;
-    have_res = 1;
-
-    Xs = dtx_alloc((size_t)block * src->nv, 3 * sizeof *Xs, 0);
-    Xt = dtx_alloc((size_t)block * tgt->nv, 3 * sizeof *Xt, 0);
-    resid = dtx_alloc((size_t)block, sizeof *resid, 0);
-    st = Xs && Xt && resid ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
-    if (agree(comm, st, err) != DTX_OK)
-        goto done;
-
-    /* Every rank makes the same number of collective write calls. */
-    for (int64_t b = 0; b * block < maxcount; b++) {
-        int64_t f0 = first + b * block;
-        int64_t n = count - b * block;
-        double t0, t1, t2;
-        n = n < 0 ? 0 : (n > block ? block : n);
-        t0 = wtime();
-        st = n > 0 ? dtx_h5_seq_read(&seq, f0, n, Xs, err) : DTX_OK;
-        t1 = wtime();
-        if (st == DTX_OK && n > 0)
-            st = dtx_sp04_apply(plan, n, Xs, Xt, resid, err);
-        t2 = wtime();
-        for (int64_t i = 0; st == DTX_OK && i < n; i++) {
-            if (!isfinite(resid[i])) {
-                st = dtx_seterr(err, DTX_ENONFINITE,
-                                "%s frame %lld: the transfer produced non-finite values",
-                                src_desc, (long long)(f0 + i));
-                break;
-            }
-            stats->frames++;
-            stats->res_sum += resid[i];
-            stats->res_max = resid[i] > stats->res_max ? resid[i] : stats->res_max;
-        }
-        if (agree(comm, st, err) != DTX_OK)
-            goto done;
-        st = dtx_h5_result_write(&res, n > 0 ? f0 : 0, n, Xt, resid, 1, err);
-        for (int64_t i = 0; st == DTX_OK && objdir[0] && i < n; i++) {
-            char path[4200];
-            snprintf(path, sizeof path, "%s/%s-%05lld.obj", objdir, tgtj->name,
-                     (long long)(f0 + i + 1));
-            st = dtx_obj_write(path, Xt + (size_t)i * 3 * tgt->nv, tgt->nv, tgt->F, tgt->nf,
-                               "deformation transfer result (dtx)", err);
-        }
-        tm->read += t1 - t0;
-        tm->transfer += t2 - t1;
-        tm->write += wtime() - t2;
-        if (agree(comm, st, err) != DTX_OK)
-            goto done;
-    }
-    st = dtx_h5_result_finish(&res, 1, err);
-    st = agree(comm, st, err);
-
-done:
-    if (have_res)
-        dtx_h5_result_close(&res);
-    dtx_h5_seq_close(&seq);
-    free(params);
-    free(Xs);
-    free(Xt);
-    free(resid);
-    return st;
-}
-
-/* ------------------------------------------------------------------ */
-/* The job                                                             */
+/* 1. The job                                                          */
 /* ------------------------------------------------------------------ */
 
 static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_error *err)
@@ -431,141 +373,631 @@ static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_er
     return DTX_OK;
 }
 
-static dtx_anchor anchor_of(dtx_translation t)
+/* ------------------------------------------------------------------ */
+/* 2. Inputs (every rank, read-only)                                   */
+/* ------------------------------------------------------------------ */
+
+static dtx_status read_sequences(run_state *r, dtx_error *err)
 {
-    return t == DTX_TRANSLATION_FOLLOW ? DTX_ANCHOR_FOLLOW
-                                       : (t == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS
-                                                                    : DTX_ANCHOR_FIXED);
-}
-
-static void write_summary(const char *path, const dtx_job *job, int nranks, int nthreads,
-                          const phase_times *tm, const run_stats *st)
-{
-    char tmp[4300];
-    FILE *f;
-    snprintf(tmp, sizeof tmp, "%.4200s.tmp", path);
-    f = fopen(tmp, "w");
-    if (!f)
-        return;
-    fprintf(f,
-            "{\n  \"dtx_version\": \"%s\",\n  \"job\": \"%s\",\n  \"output\": \"%s\",\n"
-            "  \"ranks\": %d,\n  \"threads_per_rank\": %d,\n  \"frames\": %lld,\n"
-            "  \"seconds\": {\"read\": %.6f, \"correspondence\": %.6f, \"factor\": %.6f, "
-            "\"transfer\": %.6f, \"write\": %.6f, \"total\": %.6f},\n"
-            "  \"frames_per_second\": %.3f,\n"
-            "  \"residual\": {\"mean\": %.9g, \"max\": %.9g}\n}\n",
-            DTX_VERSION, job->job_path ? job->job_path : "", job->output_file, nranks, nthreads,
-            (long long)st->frames, tm->read, tm->correspond, tm->factor, tm->transfer, tm->write,
-            tm->total, tm->total > 0 ? st->frames / tm->total : 0.0,
-            st->frames ? st->res_sum / st->frames : 0.0, st->res_max);
-    if (fclose(f) == 0)
-        rename(tmp, path);
-    else
-        remove(tmp);
-}
-
-dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *opts,
-                       dtx_error *err)
-{
-    int rank, nranks, nthreads = 1;
-    dtx_status st;
-    dtx_job job;
-    dtx_mesh src;
-    hid_t src_file = H5I_INVALID_HID, out = H5I_INVALID_HID;
-    char tmp_out[4200];
-    phase_times tm;
-    run_stats stats, total;
-    double t_start = wtime(), t0;
-
-    MPI_Comm_rank(comm, &rank);
-    MPI_Comm_size(comm, &nranks);
-#ifdef _OPENMP
-    nthreads = omp_get_max_threads();
-#endif
-    if (openblas_set_num_threads)
-        openblas_set_num_threads(1);
-    dtx_h5_init();
-    memset(&tm, 0, sizeof tm);
-    memset(&stats, 0, sizeof stats);
-    memset(&src, 0, sizeof src);
-    tmp_out[0] = '\0';
-    err->code = DTX_OK;
-    err->msg[0] = '\0';
-
-    st = load_job(comm, job_path, &job, err);
-    if (st != DTX_OK)
-        return st;
-
-    /* Inputs: every rank reads them (read-only, independent). */
-    t0 = wtime();
-    st = dtx_h5_open(job.source_file, MPI_COMM_NULL, 0, &src_file, err);
-    if (st == DTX_OK)
-        st = dtx_h5_read_mesh(src_file, job.source_mesh, &src, err);
-    if (agree(comm, st, err) != DTX_OK)
-        goto fail;
-    tm.read += wtime() - t0;
-
-    /* The output goes to a temporary file renamed at the end. */
-    if (rank == 0) {
-        snprintf(tmp_out, sizeof tmp_out, "%s.tmp-%ld", job.output_file, (long)getpid());
-        st = make_dirs(job.output_file, 1, err);
-    }
-    MPI_Bcast(tmp_out, (int)sizeof tmp_out, MPI_CHAR, 0, comm);
-    if (agree(comm, st, err) != DTX_OK)
-        goto fail;
-    st = dtx_h5_create(tmp_out, comm, &out, err);
-    if (agree(comm, st, err) != DTX_OK)
-        goto fail;
-
-    for (int32_t ti = 0; ti < job.ntargets; ti++) {
-        const dtx_job_target *tj = &job.targets[ti];
-        dtx_mesh tgt;
-        dtx_markers mk;
-        dtx_corr corr;
-        dtx_sp04_plan *plan = NULL;
-        char key[17] = "", *params = NULL, corr_path[DTX_H5_PATH_MAX], mesh_path[DTX_H5_PATH_MAX];
-        int cached = 0;
-        double *pin_pos = NULL;
-        int32_t *pin_idx = NULL;
-        memset(&tgt, 0, sizeof tgt);
-        memset(&mk, 0, sizeof mk);
-        memset(&corr, 0, sizeof corr);
-
-        t0 = wtime();
-        st = read_mesh_from(tj->file, tj->mesh, &tgt, err);
-        if (st == DTX_OK)
-            st = read_markers(tj, tj->name, &mk, err);
-        if (st == DTX_OK) {
-            char what[600];
-            snprintf(what, sizeof what, "markers of target \"%s\"", tj->name);
-            st = dtx_markers_validate(&mk, src.nv, tgt.nv, what, err);
-        }
-        tm.read += wtime() - t0;
-        if (agree(comm, st, err) != DTX_OK)
-            goto target_fail;
-
-        /* Correspondence: rank 0 computes or finds it, then broadcasts. */
-        t0 = wtime();
-        if (rank == 0) {
-            params = dtx_job_params_json(&job);
-            corr_key(&src, &tgt, &mk, params ? params : "", key);
-            st = rank0_correspondence(&job, &src, &tgt, &mk, key, &corr, &cached, err);
-            if (st == DTX_OK && !opts->quiet)
-                fprintf(stderr,
-                        "dtx: target %s: correspondence %s: %lld triangle pairs (%.2f s)\n",
-                        tj->name, cached ? "reused from the output's cache" : "computed",
-                        (long long)corr.npairs, wtime() - t0);
-        }
-        if (agree(comm, st, err) != DTX_OK)
-            goto target_fail;
-        MPI_Bcast(key, (int)sizeof key, MPI_CHAR, 0, comm);
-        st = bcast_corr(comm, &corr, src.nv, err);
+    dtx_status st = DTX_OK;
+    for (int s = 0; s < r->ns && st == DTX_OK; s++) {
+        seq_ctx *sc = &r->sq[s];
+        sc->path = r->job.sequences[s];
+        sc->name = base_name(sc->path);
+        for (int s2 = 0; s2 < s; s2++)
+            if (strcmp(r->sq[s2].name, sc->name) == 0)
+                return dtx_seterr(err, DTX_EJOB,
+                                  "%s: /source/sequences/%d (%s) and /source/sequences/%d (%s) "
+                                  "would both give results named \"%s\" (results are named "
+                                  "after the last component of the sequence path)",
+                                  r->job.job_path ? r->job.job_path : "job", s2, r->sq[s2].path,
+                                  s, sc->path, sc->name);
+        st = dtx_h5_seq_open(r->src_file, sc->path, &sc->seq, err);
         if (st != DTX_OK)
-            goto target_fail;
-        tm.correspond += wtime() - t0;
+            break;
+        sc->open = 1;
+        if (sc->seq.nv != r->src.nv)
+            st = dtx_seterr(err, DTX_EFORMAT,
+                            "%s: %s has %d vertices per frame but the source mesh %s has %d",
+                            r->job.source_file, sc->path, (int)sc->seq.nv, r->job.source_mesh,
+                            (int)r->src.nv);
+    }
+    return st;
+}
 
-        /* Factor (every rank: each needs the factor for its solves). */
+static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    for (int t = 0; t < r->nt && st == DTX_OK; t++) {
+        target_ctx *tc = &r->tg[t];
+        char what[600];
+        tc->tj = &r->job.targets[t];
+        snprintf(tc->mesh_path, sizeof tc->mesh_path, "/meshes/%s", tc->tj->name);
+        snprintf(tc->corr_path, sizeof tc->corr_path, "/correspondences/%s", tc->tj->name);
+        snprintf(what, sizeof what, "markers of target \"%s\"", tc->tj->name);
+        st = read_mesh_from(tc->tj->file, tc->tj->mesh, &tc->mesh, err);
+        if (st == DTX_OK)
+            st = read_markers(tc->tj, &tc->mk, err);
+        if (st == DTX_OK)
+            st = dtx_markers_validate(&tc->mk, r->src.nv, tc->mesh.nv, what, err);
+        if (st == DTX_OK)
+            corr_key(&r->src, &tc->mesh, &tc->mk, params, tc->key);
+    }
+    return st;
+}
+
+/* The key of the whole run: the job text and everything read from the
+ * inputs.  A partial output continues only a run with the same key. */
+static void run_key(run_state *r)
+{
+    static const char tag[] = "dtx-run-v1";
+    uint64_t h = DTX_HASH_INIT, hs = dtx_mesh_hash(&r->src);
+    struct stat sb;
+    h = dtx_hash_bytes(h, tag, sizeof tag);
+    h = dtx_hash_bytes(h, r->job.text, strlen(r->job.text));
+    h = dtx_hash_bytes(h, &hs, sizeof hs);
+    for (int t = 0; t < r->nt; t++)
+        h = dtx_hash_bytes(h, r->tg[t].key, 16);
+    for (int s = 0; s < r->ns; s++) {
+        int64_t shape[2] = {r->sq[s].seq.nframes, r->sq[s].seq.nv};
+        h = dtx_hash_bytes(h, r->sq[s].path, strlen(r->sq[s].path) + 1);
+        h = dtx_hash_bytes(h, shape, sizeof shape);
+    }
+    /* The frames themselves are not hashed (too big): a source file that
+     * was rewritten since shows in its size and modification time. */
+    if (stat(r->job.source_file, &sb) == 0) {
+        int64_t id[3] = {(int64_t)sb.st_size, (int64_t)sb.st_mtim.tv_sec,
+                         (int64_t)sb.st_mtim.tv_nsec};
+        h = dtx_hash_bytes(h, id, sizeof id);
+    }
+    dtx_hash_hex(h, r->run_key);
+}
+
+static dtx_status read_inputs(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    double t0 = wtime();
+    char *params = dtx_job_params_json(&r->job);
+    r->nt = r->job.ntargets;
+    r->ns = r->job.nsequences;
+    r->tg = calloc((size_t)r->nt, sizeof *r->tg);
+    r->sq = calloc((size_t)r->ns, sizeof *r->sq);
+    r->rs = dtx_alloc((size_t)r->nt * (size_t)r->ns, sizeof *r->rs, 1);
+    if (!params || !r->tg || !r->sq || !r->rs)
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    if (st == DTX_OK)
+        st = dtx_h5_open(r->job.source_file, MPI_COMM_NULL, 0, &r->src_file, err);
+    if (st == DTX_OK)
+        st = dtx_h5_read_mesh(r->src_file, r->job.source_mesh, &r->src, err);
+    if (st == DTX_OK)
+        st = read_targets(r, params, err);
+    if (st == DTX_OK)
+        st = read_sequences(r, err);
+    if (st == DTX_OK)
+        run_key(r);
+    free(params);
+    r->tm.read += wtime() - t0;
+    return agree(r->comm, st, err);
+}
+
+/* ------------------------------------------------------------------ */
+/* 3. What the output is                                               */
+/* ------------------------------------------------------------------ */
+
+/* 1 when the file at path was written by a run with key `key` (and, with
+ * need_complete, every result of the job in it is complete); else 0 with
+ * the reason in why. */
+static int file_matches(run_state *r, const char *path, int need_complete, char *why, size_t n)
+{
+    hid_t f = H5I_INVALID_HID;
+    dtx_error e;
+    char *key = NULL;
+    int ok = 0;
+    if (dtx_h5_open(path, MPI_COMM_NULL, 0, &f, &e) != DTX_OK) {
+        snprintf(why, n, "%s", e.msg);
+        return 0;
+    }
+    if (dtx_h5_read_attr_str(f, ".", "dtx_run_key", &key, &e) != DTX_OK)
+        snprintf(why, n, "it was not written by a resumable run");
+    else if (strcmp(key, r->run_key) != 0)
+        snprintf(why, n, "it belongs to a different job or different inputs");
+    else
+        ok = 1;
+    for (int t = 0; ok && need_complete && t < r->nt; t++)
+        for (int s = 0; ok && s < r->ns; s++) {
+            char p[DTX_H5_PATH_MAX];
+            int64_t c = 0;
+            snprintf(p, sizeof p, "/results/%s/%s", r->tg[t].tj->name, r->sq[s].name);
+            if (dtx_h5_read_attr_int(f, p, "complete", &c, &e) != DTX_OK || c != 1) {
+                snprintf(why, n, "%s is not complete", p);
+                ok = 0;
+            }
+        }
+    free(key);
+    dtx_h5_close(&f, NULL);
+    return ok;
+}
+
+/* Rank 0: fresh, resume or done. */
+static out_mode decide_mode(run_state *r)
+{
+    char why[1200];
+    int has_partial = access(r->partial, F_OK) == 0;
+    if (r->opts->resume) {
+        if (has_partial) {
+            if (file_matches(r, r->partial, 0, why, sizeof why))
+                return OUT_RESUME;
+            say(r, "dtx: cannot continue %s (%s): starting over", r->partial, why);
+            return OUT_FRESH;
+        }
+        if (access(r->job.output_file, F_OK) == 0 &&
+            file_matches(r, r->job.output_file, 1, why, sizeof why))
+            return OUT_DONE;
+        say(r, "dtx: no interrupted run of this job to continue: running it from the start");
+        return OUT_FRESH;
+    }
+    if (has_partial)
+        say(r, "dtx: discarding %s, left by an interrupted run (`dtx run --resume` continues one)",
+            r->partial);
+    return OUT_FRESH;
+}
+
+/* ------------------------------------------------------------------ */
+/* 4. Correspondences                                                  */
+/* ------------------------------------------------------------------ */
+
+/* Rank 0: correspondences whose key matches one in the cache file. */
+static void find_cached(run_state *r, const char *cache, int *reused)
+{
+    hid_t f = H5I_INVALID_HID;
+    dtx_error e;
+    if (!cache || access(cache, R_OK) != 0 ||
+        dtx_h5_open(cache, MPI_COMM_NULL, 0, &f, &e) != DTX_OK)
+        return;
+    for (int t = 0; t < r->nt; t++) {
+        target_ctx *tc = &r->tg[t];
+        char *group = NULL;
+        dtx_h5_corr c;
+        if (reused[t])
+            continue;
+        if (dtx_h5_find_corr_by_key(f, tc->key, &group, &e) == DTX_OK && group &&
+            dtx_h5_read_corr(f, group, r->src.nv, r->src.nf, tc->mesh.nf, &c, &e) == DTX_OK) {
+            memset(&tc->corr, 0, sizeof tc->corr);
+            tc->corr.npairs = c.npairs;
+            tc->corr.pairs = c.pairs;
+            tc->corr.deformed_src = c.deformed_src;
+            tc->corr.nv_src = c.nv_s;
+            c.pairs = NULL;
+            c.deformed_src = NULL;
+            dtx_h5_corr_free(&c);
+            reused[t] = 1;
+        }
+        free(group);
+    }
+    dtx_h5_close(&f, NULL);
+}
+
+/* Targets to compute go to ranks biggest first, each onto the rank with the
+ * least work so far (ties: the lowest rank), so several targets are
+ * corresponded at once. */
+static void assign_owners(run_state *r, const int *reused)
+{
+    double *load = calloc((size_t)r->nranks, sizeof *load);
+    int *done = calloc((size_t)r->nt, sizeof *done);
+    for (int t = 0; t < r->nt; t++)
+        r->tg[t].owner = 0;
+    if (!load || !done) {
+        free(load);
+        free(done);
+        return; /* everything on rank 0: slower, still right */
+    }
+    for (;;) {
+        int best = -1, q = 0;
+        double cost = 0;
+        for (int t = 0; t < r->nt; t++) {
+            double c = (double)r->tg[t].mesh.nf + (double)r->src.nf;
+            if (!reused[t] && !done[t] && (best < 0 || c > cost)) {
+                best = t;
+                cost = c;
+            }
+        }
+        if (best < 0)
+            break;
+        for (int k = 1; k < r->nranks; k++)
+            if (load[k] < load[q])
+                q = k;
+        r->tg[best].owner = q;
+        load[q] += cost;
+        done[best] = 1;
+    }
+    free(load);
+    free(done);
+}
+
+static dtx_status correspondences(run_state *r, dtx_error *err)
+{
+    double t0 = wtime();
+    dtx_status st = DTX_OK;
+    dtx_corr_params prm;
+    int *reused = calloc((size_t)r->nt, sizeof *reused);
+    int ncomputed = 0;
+    if (agree(r->comm, reused ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory"), err) !=
+        DTX_OK) {
+        free(reused);
+        return err->code;
+    }
+    /* The partial of an interrupted run holds correspondences too, even
+     * when it is discarded. */
+    if (r->rank == 0) {
+        find_cached(r, r->partial, reused);
+        find_cached(r, r->job.output_file, reused);
+    }
+    MPI_Bcast(reused, r->nt, MPI_INT, 0, r->comm);
+    assign_owners(r, reused);
+    corr_params_from_job(&r->job, &prm);
+    for (int t = 0; t < r->nt && st == DTX_OK; t++) {
+        target_ctx *tc = &r->tg[t];
+        tc->reused = reused[t];
+        ncomputed += !reused[t];
+        if (reused[t] || tc->owner != r->rank)
+            continue;
+        st = dtx_sp04_correspond(&r->src, &tc->mesh, &tc->mk, &prm, &tc->corr, err);
+        if (st != DTX_OK)
+            dtx_error_prefix(err, "target \"%s\" (%s:%s)", tc->tj->name, tc->tj->file,
+                             tc->tj->mesh);
+    }
+    free(reused);
+    if (agree(r->comm, st, err) != DTX_OK)
+        return err->code;
+    for (int t = 0; t < r->nt; t++)
+        if ((st = bcast_corr(r->comm, r->tg[t].owner, &r->tg[t].corr, r->src.nv, err)) != DTX_OK)
+            return st;
+    r->tm.correspond += wtime() - t0;
+    for (int t = 0; t < r->nt; t++)
+        say(r, "dtx: target %s: correspondence %s: %lld triangle pairs", r->tg[t].tj->name,
+            r->tg[t].reused ? "reused from the output's cache" : "computed",
+            (long long)r->tg[t].corr.npairs);
+    if (ncomputed > 1 && r->nranks > 1)
+        say(r, "dtx: %d correspondences computed on %d ranks in %.2f s", ncomputed,
+            ncomputed < r->nranks ? ncomputed : r->nranks, r->tm.correspond);
+    return DTX_OK;
+}
+
+/* ------------------------------------------------------------------ */
+/* 5. The output                                                       */
+/* ------------------------------------------------------------------ */
+
+static dtx_status create_output(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    char *params = dtx_job_params_json(&r->job);
+    char srcdesc[4200];
+    if (r->rank == 0) {
+        st = make_dirs(r->job.output_file, 1, err);
+        if (st == DTX_OK && remove(r->partial) != 0 && errno != ENOENT)
+            st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", r->partial, strerror(errno));
+    }
+    if (agree(r->comm, st, err) != DTX_OK)
+        goto done;
+    if (agree(r->comm, dtx_h5_create(r->partial, r->comm, &r->out, err), err) != DTX_OK)
+        goto done;
+    st = params ? dtx_h5_write_attr_str(r->out, ".", "dtx_run_key", r->run_key, err)
+                : dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
+    for (int t = 0; t < r->nt && st == DTX_OK; t++) {
+        target_ctx *tc = &r->tg[t];
+        const dtx_job_target *tj = tc->tj;
+        char tgtdesc[4200], mkdesc[4200];
+        dtx_h5_corr_meta meta;
+        snprintf(tgtdesc, sizeof tgtdesc, "%s:%s", tj->file, tj->mesh);
+        if (tj->markers.csv)
+            snprintf(mkdesc, sizeof mkdesc, "%s (index base %d)", tj->markers.csv,
+                     tj->markers.index_base);
+        else
+            snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
+        meta.key = tc->key;
+        meta.source_mesh = srcdesc;
+        meta.target_mesh = tgtdesc;
+        meta.markers = mkdesc;
+        meta.parameters = params;
+        st = dtx_h5_write_mesh(r->out, tc->mesh_path, &tc->mesh, tgtdesc, err);
+        if (st == DTX_OK)
+            st = dtx_h5_write_corr(r->out, tc->corr_path, tc->corr.pairs, tc->corr.npairs,
+                                   tc->corr.deformed_src, r->src.nv, &meta, err);
+        for (int s = 0; s < r->ns && st == DTX_OK; s++) {
+            result_ctx *rc = RESULT(r, t, s);
+            char res_path[DTX_H5_PATH_MAX], seqdesc[4200];
+            dtx_h5_provenance prov;
+            snprintf(res_path, sizeof res_path, "/results/%s/%s", tj->name, r->sq[s].name);
+            snprintf(seqdesc, sizeof seqdesc, "%s:%s", r->job.source_file, r->sq[s].path);
+            prov.method = "sp04";
+            prov.job = r->job.text;
+            prov.parameters = params;
+            prov.source_sequence = seqdesc;
+            prov.target_mesh = tc->mesh_path;
+            prov.correspondence = tc->corr_path;
+            st = dtx_h5_result_create(r->out, res_path, &prov, r->sq[s].seq.nframes,
+                                      tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
+                                      DTX_FRAME_ALIGN, 0, &rc->res, err);
+            rc->open = st == DTX_OK;
+        }
+    }
+    /* Everything the frame loop needs exists on disk before any frame. */
+    if (st == DTX_OK)
+        st = dtx_h5_flush(r->out, err);
+done:
+    free(params);
+    return agree(r->comm, st, err);
+}
+
+static dtx_status reopen_output(run_state *r, dtx_error *err)
+{
+    dtx_status st = dtx_h5_open(r->partial, r->comm, 1, &r->out, err);
+    for (int t = 0; t < r->nt && st == DTX_OK; t++)
+        for (int s = 0; s < r->ns && st == DTX_OK; s++) {
+            result_ctx *rc = RESULT(r, t, s);
+            char final[DTX_H5_PATH_MAX], tmp[DTX_H5_PATH_MAX];
+            int64_t complete = 0;
+            snprintf(final, sizeof final, "/results/%s/%s", r->tg[t].tj->name, r->sq[s].name);
+            st = dtx_h5_tmp_path(final, tmp, sizeof tmp, err);
+            if (st != DTX_OK)
+                break;
+            if (dtx_h5_path_exists(r->out, tmp)) {
+                st = dtx_h5_result_open(r->out, final, 1, &rc->res, err);
+                rc->open = st == DTX_OK;
+                if (st == DTX_OK && (rc->res.nframes != r->sq[s].seq.nframes ||
+                                     rc->res.nv != r->tg[t].mesh.nv))
+                    st = dtx_seterr(err, DTX_EFORMAT,
+                                    "%s: %s has %lld frames of %d vertices, the job needs %lld "
+                                    "of %d: cannot resume",
+                                    r->partial, tmp, (long long)rc->res.nframes, (int)rc->res.nv,
+                                    (long long)r->sq[s].seq.nframes, (int)r->tg[t].mesh.nv);
+            } else if (dtx_h5_read_attr_int(r->out, final, "complete", &complete, err) ==
+                           DTX_OK &&
+                       complete == 1) {
+                rc->finished = 1;
+            } else {
+                st = dtx_seterr(err, DTX_EFORMAT,
+                                "%s: neither %s nor a finished %s: cannot resume", r->partial,
+                                tmp, final);
+            }
+        }
+    return agree(r->comm, st, err);
+}
+
+/* ------------------------------------------------------------------ */
+/* 6. Frames                                                           */
+/* ------------------------------------------------------------------ */
+
+/* The groups (of DTX_FRAME_ALIGN frames) of a result with a frame not done:
+ * todo[0 .. *ntodo), increasing.  *skipped counts the frames already done
+ * in whole groups. */
+static dtx_status groups_todo(const result_ctx *rc, int64_t **todo, int64_t *ntodo,
+                              int64_t *skipped, dtx_error *err)
+{
+    int64_t nframes = rc->res.nframes, ng = (nframes + DTX_FRAME_ALIGN - 1) / DTX_FRAME_ALIGN;
+    uint8_t *done = dtx_alloc((size_t)nframes, 1, 0);
+    dtx_status st;
+    *ntodo = *skipped = 0;
+    *todo = dtx_alloc((size_t)ng, sizeof **todo, 0);
+    if (!done || !*todo) {
+        free(done);
+        free(*todo);
+        *todo = NULL;
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    }
+    st = dtx_h5_result_read_done(&rc->res, done, err);
+    for (int64_t g = 0; st == DTX_OK && g < ng; g++) {
+        int64_t f0 = g * DTX_FRAME_ALIGN, f1 = f0 + DTX_FRAME_ALIGN, all = 1;
+        f1 = f1 < nframes ? f1 : nframes;
+        for (int64_t f = f0; f < f1; f++)
+            all &= done[f] == 1;
+        if (all)
+            *skipped += f1 - f0;
+        else
+            (*todo)[(*ntodo)++] = g;
+    }
+    free(done);
+    return st;
+}
+
+/* The groups todo[a .. b) of one rank cut into segments: runs of
+ * consecutive groups of at most gpb groups.  Returns the number of
+ * segments; with seg != NULL stores segment k's first index into todo in
+ * seg[k] (seg[nseg] = b). */
+static int64_t segments(const int64_t *todo, int64_t a, int64_t b, int64_t gpb, int64_t *seg)
+{
+    int64_t n = 0, len = 0;
+    for (int64_t k = a; k < b; k++) {
+        if (k == a || todo[k] != todo[k - 1] + 1 || len == gpb) {
+            if (seg)
+                seg[n] = k;
+            n++;
+            len = 0;
+        }
+        len++;
+    }
+    if (seg)
+        seg[n] = b;
+    return n;
+}
+
+/* The range [a, b) of todo that rank q deals with.  The ranks are rotated
+ * by `rot` so that the remainders of many short sequences do not all land
+ * on the first ranks. */
+static void rank_range(int64_t ntodo, int nranks, int q, int rot, int64_t *a, int64_t *b)
+{
+    int64_t first, count;
+    dtx_partition_frames(ntodo, 1, nranks, (q - rot % nranks + nranks) % nranks, &first, &count);
+    *a = first;
+    *b = first + count;
+}
+
+typedef struct {
+    int32_t block;         /* frames per block, a multiple of DTX_FRAME_ALIGN */
+    double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
+} frame_buffers;
+
+static void progress_step(run_state *r, int64_t n)
+{
+    int64_t sum = 0;
+    MPI_Reduce(&n, &sum, 1, MPI_INT64_T, MPI_SUM, 0, r->comm);
+    if (r->rank == 0) {
+        r->frames_done += sum;
+        dtx_progress_update(&r->prog, r->frames_done, wtime());
+    }
+}
+
+static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *sc,
+                             int64_t f0, int64_t n, const double *Xt, dtx_error *err)
+{
+    char dir[4096];
+    dtx_status st = DTX_OK;
+    snprintf(dir, sizeof dir, "%s/%s/%s", r->job.export_obj_dir, tc->tj->name, sc->name);
+    for (int64_t i = 0; st == DTX_OK && i < n; i++) {
+        char path[4200];
+        snprintf(path, sizeof path, "%s/%s-%05lld.obj", dir, tc->tj->name,
+                 (long long)(f0 + i + 1));
+        st = dtx_obj_write(path, Xt + (size_t)i * 3 * tc->mesh.nv, tc->mesh.nv, tc->mesh.F,
+                           tc->mesh.nf, "deformation transfer result (dtx)", err);
+    }
+    return st;
+}
+
+/* Transfers the frames of result (t, s) not yet done, each rank its share,
+ * in blocks; every rank makes the same number of collective writes. */
+static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *plan,
+                                  frame_buffers *fb, dtx_error *err)
+{
+    result_ctx *rc = RESULT(r, t, s);
+    const target_ctx *tc = &r->tg[t];
+    const seq_ctx *sc = &r->sq[s];
+    int64_t *todo = NULL, *seg = NULL, ntodo = 0, skipped = 0, a, b, nseg, nseg_max = 0;
+    int64_t gpb = fb->block / DTX_FRAME_ALIGN, nframes = rc->res.nframes;
+    int rot = (int)(((int64_t)t * r->ns + s) % r->nranks);
+    dtx_status st;
+
+    stats_init(&rc->st);
+    st = groups_todo(rc, &todo, &ntodo, &skipped, err);
+    if (agree(r->comm, st, err) != DTX_OK)
+        goto done;
+    for (int q = 0; q < r->nranks; q++) {
+        int64_t qa, qb, n;
+        rank_range(ntodo, r->nranks, q, rot, &qa, &qb);
+        n = segments(todo, qa, qb, gpb, NULL);
+        nseg_max = n > nseg_max ? n : nseg_max;
+    }
+    rank_range(ntodo, r->nranks, r->rank, rot, &a, &b);
+    seg = dtx_alloc((size_t)(b - a) + 1, sizeof *seg, 0);
+    st = seg ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    if (agree(r->comm, st, err) != DTX_OK)
+        goto done;
+    nseg = segments(todo, a, b, gpb, seg);
+    if (r->job.export_obj_dir && ntodo > 0) {
+        char dir[4096];
+        snprintf(dir, sizeof dir, "%s/%s/%s", r->job.export_obj_dir, tc->tj->name, sc->name);
+        st = r->rank == 0 ? make_dirs(dir, 0, err) : DTX_OK;
+        if (agree(r->comm, st, err) != DTX_OK)
+            goto done;
+    }
+
+    for (int64_t k = 0; k < nseg_max; k++) {
+        int64_t f0 = 0, n = 0;
+        double t0, t1, t2;
+        if (k < nseg) {
+            f0 = todo[seg[k]] * DTX_FRAME_ALIGN;
+            n = (todo[seg[k + 1] - 1] + 1) * DTX_FRAME_ALIGN - f0;
+            n = f0 + n > nframes ? nframes - f0 : n;
+        }
         t0 = wtime();
+        st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
+        t1 = wtime();
+        if (st == DTX_OK && n > 0)
+            st = dtx_sp04_apply(plan, n, fb->Xs, fb->Xt, fb->res, err);
+        t2 = wtime();
+        for (int64_t i = 0; st == DTX_OK && i < n; i++) {
+            if (!isfinite(fb->res[i])) {
+                st = dtx_seterr(err, DTX_ENONFINITE,
+                                "%s:%s frame %lld: the transfer onto \"%s\" produced non-finite "
+                                "values",
+                                r->job.source_file, sc->path, (long long)(f0 + i),
+                                tc->tj->name);
+                break;
+            }
+            stats_add(&rc->st, fb->res[i]);
+        }
+        if (agree(r->comm, st, err) != DTX_OK)
+            goto done;
+        st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, 1, err);
+        if (st == DTX_OK && r->job.export_obj_dir)
+            st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
+        r->tm.read += t1 - t0;
+        r->tm.transfer += t2 - t1;
+        r->tm.write += wtime() - t2;
+        if (agree(r->comm, st, err) != DTX_OK)
+            goto done;
+        progress_step(r, n);
+    }
+done:
+    free(todo);
+    free(seg);
+    return st;
+}
+
+/* Frames still to do over all results (rank 0's count is the one used). */
+static dtx_status count_todo(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    r->frames_todo = r->frames_skipped = 0;
+    for (int t = 0; t < r->nt && st == DTX_OK; t++)
+        for (int s = 0; s < r->ns && st == DTX_OK; s++) {
+            result_ctx *rc = RESULT(r, t, s);
+            int64_t *todo = NULL, ntodo = 0, skipped = 0;
+            if (rc->finished) {
+                r->frames_skipped += r->sq[s].seq.nframes;
+                continue;
+            }
+            st = groups_todo(rc, &todo, &ntodo, &skipped, err);
+            r->frames_todo += rc->res.nframes - skipped;
+            r->frames_skipped += skipped;
+            free(todo);
+        }
+    return agree(r->comm, st, err);
+}
+
+static dtx_status transfer_all(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    int32_t maxnv = 0;
+    frame_buffers fb;
+    memset(&fb, 0, sizeof fb);
+    /* Blocks are whole solve groups, so frame arithmetic never depends on
+     * how frames are split over ranks or calls. */
+    fb.block = r->job.block_frames;
+    if (fb.block % DTX_FRAME_ALIGN)
+        fb.block += DTX_FRAME_ALIGN - fb.block % DTX_FRAME_ALIGN;
+    for (int t = 0; t < r->nt; t++)
+        maxnv = r->tg[t].mesh.nv > maxnv ? r->tg[t].mesh.nv : maxnv;
+    fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
+    fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
+    fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
+    st = fb.Xs && fb.Xt && fb.res ? DTX_OK
+                                   : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
+    if (agree(r->comm, st, err) != DTX_OK)
+        goto done;
+
+    for (int t = 0; t < r->nt; t++) {
+        target_ctx *tc = &r->tg[t];
+        const dtx_job_target *tj = tc->tj;
+        dtx_sp04_plan *plan = NULL;
+        int32_t *pin_idx = NULL;
+        double *pin_pos = NULL, t0 = wtime();
+        int needed = 0;
+        for (int s = 0; s < r->ns; s++)
+            needed |= !RESULT(r, t, s)->finished;
+        if (!needed)
+            continue;
+        /* Factor (every rank: each needs the factor for its solves). */
         if (tj->npins > 0) {
             pin_idx = dtx_alloc((size_t)tj->npins, sizeof *pin_idx, 0);
             pin_pos = dtx_alloc((size_t)tj->npins, 3 * sizeof *pin_pos, 0);
@@ -575,120 +1007,312 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
                     memcpy(pin_pos + 3 * i, tj->pins[i].pos, 3 * sizeof *pin_pos);
                 }
         }
-        st = dtx_sp04_plan_create(&src, &tgt, corr.pairs, corr.npairs, anchor_of(tj->translation),
-                                  pin_idx, pin_pos, tj->npins, &plan, err);
+        st = dtx_sp04_plan_create(
+            &r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs,
+            tj->translation == DTX_TRANSLATION_FOLLOW
+                ? DTX_ANCHOR_FOLLOW
+                : (tj->translation == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS : DTX_ANCHOR_FIXED),
+            pin_idx, pin_pos, tj->npins, &plan, err);
         if (st != DTX_OK)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tj->name, tj->file, tj->mesh);
-        tm.factor += wtime() - t0;
-        if (agree(comm, st, err) != DTX_OK)
-            goto target_fail;
-
-        /* The target mesh and its correspondence go into the output. */
-        t0 = wtime();
-        snprintf(mesh_path, sizeof mesh_path, "/meshes/%s", tj->name);
-        snprintf(corr_path, sizeof corr_path, "/correspondences/%s", tj->name);
-        {
-            char srcdesc[4200], tgtdesc[4200], mkdesc[4200];
-            dtx_h5_corr_meta meta;
-            snprintf(srcdesc, sizeof srcdesc, "%s:%s", job.source_file, job.source_mesh);
-            snprintf(tgtdesc, sizeof tgtdesc, "%s:%s", tj->file, tj->mesh);
-            if (tj->markers.csv)
-                snprintf(mkdesc, sizeof mkdesc, "%s (index base %d)", tj->markers.csv,
-                         tj->markers.index_base);
-            else
-                snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
-            meta.key = key;
-            meta.source_mesh = srcdesc;
-            meta.target_mesh = tgtdesc;
-            meta.markers = mkdesc;
-            st = dtx_h5_write_mesh(out, mesh_path, &tgt, tgtdesc, err);
-            if (agree(comm, st, err) != DTX_OK)
-                goto target_fail;
-            /* Attributes must be identical on every rank: share the params. */
-            {
-                long long plen = rank == 0 && params ? (long long)strlen(params) : 0;
-                MPI_Bcast(&plen, 1, MPI_LONG_LONG, 0, comm);
-                if (rank != 0) {
-                    params = calloc((size_t)plen + 1, 1);
-                    if (!params)
-                        MPI_Abort(comm, 1);
-                }
-                MPI_Bcast(params, (int)plen, MPI_CHAR, 0, comm);
-                meta.parameters = params;
-            }
-            st = dtx_h5_write_corr(out, corr_path, corr.pairs, corr.npairs, corr.deformed_src,
-                                   src.nv, &meta, err);
-            if (agree(comm, st, err) != DTX_OK)
-                goto target_fail;
-        }
-        tm.write += wtime() - t0;
-
-        for (int32_t si = 0; si < job.nsequences; si++) {
-            st = transfer_sequence(comm, &job, src_file, job.sequences[si], &src, tj, &tgt, plan,
-                                   out, corr_path, &tm, &stats, err);
-            if (st != DTX_OK)
-                goto target_fail;
-            if (rank == 0 && !opts->quiet)
-                fprintf(stderr, "dtx: target %s: sequence %s done\n", tj->name,
-                        job.sequences[si]);
-        }
-
-    target_fail:
-        dtx_sp04_plan_free(&plan);
-        dtx_corr_free(&corr);
-        dtx_markers_free(&mk);
-        dtx_mesh_free(&tgt);
-        free(params);
         free(pin_idx);
         free(pin_pos);
+        r->tm.factor += wtime() - t0;
+        if (agree(r->comm, st, err) != DTX_OK)
+            goto done;
+        for (int s = 0; s < r->ns && st == DTX_OK; s++)
+            if (!RESULT(r, t, s)->finished)
+                st = transfer_result(r, t, s, plan, &fb, err);
+        dtx_sp04_plan_free(&plan);
+        if (st != DTX_OK)
+            goto done;
+    }
+done:
+    free(fb.Xs);
+    free(fb.Xt);
+    free(fb.res);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* 7. Finish                                                           */
+/* ------------------------------------------------------------------ */
+
+static dtx_status finish_output(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    double t0 = wtime();
+    for (int t = 0; t < r->nt; t++)
+        for (int s = 0; s < r->ns; s++) {
+            result_ctx *rc = RESULT(r, t, s);
+            if (!rc->open)
+                continue;
+            st = dtx_h5_result_finish(&rc->res, 1, err);
+            if (agree(r->comm, st, err) != DTX_OK)
+                return err->code;
+            dtx_h5_result_close(&rc->res);
+            rc->open = 0;
+        }
+    if (agree(r->comm, dtx_h5_close(&r->out, err), err) != DTX_OK)
+        return err->code;
+    if (r->rank == 0 && rename(r->partial, r->job.output_file) != 0)
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename the finished output into place: %s",
+                        r->job.output_file, strerror(errno));
+    r->tm.write += wtime() - t0;
+    return agree(r->comm, st, err);
+}
+
+/* ------------------------------------------------------------------ */
+/* 8. Summary                                                          */
+/* ------------------------------------------------------------------ */
+
+static void json_str(FILE *f, const char *s)
+{
+    fputc('"', f);
+    for (; s && *s; s++) {
+        unsigned char c = (unsigned char)*s;
+        if (c == '"' || c == '\\')
+            fprintf(f, "\\%c", c);
+        else if (c < 0x20)
+            fprintf(f, "\\u%04x", c);
+        else
+            fputc(c, f);
+    }
+    fputc('"', f);
+}
+
+static double mean_of(const run_stats *s) { return s->frames ? s->sum / (double)s->frames : 0; }
+
+static void json_stats(FILE *f, const run_stats *s)
+{
+    double m = mean_of(s), var = s->frames ? s->sumsq / (double)s->frames - m * m : 0;
+    fprintf(f, "{\"mean\": %.9g, \"std\": %.9g, \"min\": %.9g, \"max\": %.9g}", m,
+            var > 0 ? sqrt(var) : 0.0, s->frames ? s->min : 0.0, s->frames ? s->max : 0.0);
+}
+
+/* Peak resident memory of this process, MiB. */
+static double peak_rss_mb(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
+}
+
+static void write_summary(run_state *r, const char *path, const run_stats *all,
+                          const double *rss)
+{
+    static const char *const mode_name[] = {"fresh", "resumed", "already complete"};
+    char tmp[4300];
+    double rss_max = 0;
+    FILE *f;
+    snprintf(tmp, sizeof tmp, "%.4200s.tmp", path);
+    f = fopen(tmp, "w");
+    if (!f) {
+        say(r, "dtx: warning: cannot write the run summary %s: %s", tmp, strerror(errno));
+        return;
+    }
+    for (int q = 0; q < r->nranks; q++)
+        rss_max = rss[q] > rss_max ? rss[q] : rss_max;
+    fprintf(f, "{\n  \"dtx_version\": \"%s\",\n  \"job\": ", DTX_VERSION);
+    json_str(f, r->job.job_path);
+    fprintf(f, ",\n  \"output\": ");
+    json_str(f, r->job.output_file);
+    fprintf(f,
+            ",\n  \"mode\": \"%s\",\n  \"ranks\": %d,\n  \"threads_per_rank\": %d,\n"
+            "  \"frames\": %lld,\n  \"frames_skipped\": %lld,\n"
+            "  \"seconds\": {\"read\": %.6f, \"correspondence\": %.6f, \"factor\": %.6f, "
+            "\"transfer\": %.6f, \"write\": %.6f, \"total\": %.6f},\n"
+            "  \"frames_per_second\": %.3f,\n  \"residual\": ",
+            mode_name[r->mode], r->nranks, r->nthreads, (long long)all->frames,
+            (long long)r->frames_skipped, r->tm.read, r->tm.correspond, r->tm.factor,
+            r->tm.transfer, r->tm.write, r->tm.total,
+            r->tm.total > 0 ? (double)all->frames / r->tm.total : 0.0);
+    json_stats(f, all);
+    fprintf(f, ",\n  \"peak_rss_mb\": %.1f,\n  \"peak_rss_mb_per_rank\": [", rss_max);
+    for (int q = 0; q < r->nranks; q++)
+        fprintf(f, "%s%.1f", q ? ", " : "", rss[q]);
+    fprintf(f, "],\n  \"correspondences\": {");
+    for (int t = 0; t < r->nt; t++) {
+        fprintf(f, "%s", t ? ", " : "");
+        json_str(f, r->tg[t].tj->name);
+        fprintf(f, ": \"%s\"",
+                r->mode == OUT_DONE ? "not needed" : (r->tg[t].reused ? "reused" : "computed"));
+    }
+    fprintf(f, "},\n  \"results\": [");
+    for (int t = 0; t < r->nt; t++)
+        for (int s = 0; s < r->ns; s++) {
+            const result_ctx *rc = RESULT(r, t, s);
+            fprintf(f, "%s\n    {\"target\": ", t + s ? "," : "");
+            json_str(f, r->tg[t].tj->name);
+            fprintf(f, ", \"sequence\": ");
+            json_str(f, r->sq[s].path);
+            fprintf(f, ", \"frames\": %lld, \"residual\": ", (long long)rc->st.frames);
+            json_stats(f, &rc->st);
+            fputc('}', f);
+        }
+    fprintf(f, "\n  ]\n}\n");
+    if (fclose(f) != 0 || rename(tmp, path) != 0) {
+        say(r, "dtx: warning: cannot write the run summary %s", path);
+        remove(tmp);
+    }
+}
+
+static void summarise(run_state *r)
+{
+    run_stats all;
+    double mine = peak_rss_mb(), *rss = NULL;
+    stats_init(&all);
+    stats_reduce(r->comm, &r->stats, &all);
+    if (r->rank == 0)
+        rss = calloc((size_t)r->nranks, sizeof *rss);
+    MPI_Gather(&mine, 1, MPI_DOUBLE, rss, 1, MPI_DOUBLE, 0, r->comm);
+    if (r->rank != 0 || !rss) {
+        free(rss);
+        return;
+    }
+    {
+        char sp[4200];
+        if (r->opts->summary_path)
+            snprintf(sp, sizeof sp, "%s", r->opts->summary_path);
+        else
+            snprintf(sp, sizeof sp, "%s.summary.json", r->job.output_file);
+        write_summary(r, sp, &all, rss);
+    }
+    if (r->mode == OUT_DONE)
+        say(r, "dtx: %s is already complete for this job: nothing to do", r->job.output_file);
+    else
+        say(r,
+            "dtx: %lld frames in %.3f s (%.1f frames/s) on %d rank(s) x %d thread(s)%s; "
+            "read %.3f s, correspondence %.3f s, factor %.3f s, transfer %.3f s, write %.3f s; "
+            "mean residual %.4g\ndtx: result: %s",
+            (long long)all.frames, r->tm.total,
+            r->tm.total > 0 ? (double)all.frames / r->tm.total : 0.0, r->nranks, r->nthreads,
+            r->frames_skipped ? " (frames done before were kept)" : "", r->tm.read,
+            r->tm.correspond, r->tm.factor, r->tm.transfer, r->tm.write, mean_of(&all),
+            r->job.output_file);
+    free(rss);
+}
+
+/* ------------------------------------------------------------------ */
+/* The job                                                             */
+/* ------------------------------------------------------------------ */
+
+static void release(run_state *r)
+{
+    for (int t = 0; r->rs && t < r->nt; t++)
+        for (int s = 0; s < r->ns; s++)
+            if (RESULT(r, t, s)->open)
+                dtx_h5_result_close(&RESULT(r, t, s)->res);
+    if (r->out >= 0)
+        dtx_h5_close(&r->out, NULL);
+    for (int s = 0; r->sq && s < r->ns; s++)
+        if (r->sq[s].open)
+            dtx_h5_seq_close(&r->sq[s].seq);
+    for (int t = 0; r->tg && t < r->nt; t++) {
+        dtx_corr_free(&r->tg[t].corr);
+        dtx_markers_free(&r->tg[t].mk);
+        dtx_mesh_free(&r->tg[t].mesh);
+    }
+    if (r->src_file >= 0)
+        dtx_h5_close(&r->src_file, NULL);
+    dtx_mesh_free(&r->src);
+    free(r->tg);
+    free(r->sq);
+    free(r->rs);
+    dtx_job_free(&r->job);
+}
+
+dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *opts,
+                       dtx_error *err)
+{
+    run_state r;
+    dtx_status st;
+    double t_start = wtime();
+    int out_started = 0;
+
+    memset(&r, 0, sizeof r);
+    r.comm = comm;
+    r.opts = opts;
+    r.src_file = r.out = H5I_INVALID_HID;
+    r.nthreads = 1;
+    MPI_Comm_rank(comm, &r.rank);
+    MPI_Comm_size(comm, &r.nranks);
+#ifdef _OPENMP
+    r.nthreads = omp_get_max_threads();
+#endif
+    if (openblas_set_num_threads)
+        openblas_set_num_threads(1);
+    dtx_h5_init();
+    stats_init(&r.stats);
+    err->code = DTX_OK;
+    err->msg[0] = '\0';
+
+    if ((st = load_job(comm, job_path, &r.job, err)) != DTX_OK)
+        return st;
+    snprintf(r.partial, sizeof r.partial, "%s.partial", r.job.output_file);
+    if ((st = read_inputs(&r, err)) != DTX_OK)
+        goto fail;
+    {
+        int mode = r.rank == 0 ? (int)decide_mode(&r) : 0;
+        MPI_Bcast(&mode, 1, MPI_INT, 0, comm);
+        r.mode = (out_mode)mode;
+    }
+    if (r.mode != OUT_DONE) {
+        if ((st = correspondences(&r, err)) != DTX_OK)
+            goto fail;
+        out_started = 1;
+        st = r.mode == OUT_RESUME ? reopen_output(&r, err) : create_output(&r, err);
+        if (st == DTX_OK)
+            st = count_todo(&r, err);
         if (st != DTX_OK)
             goto fail;
+        if (r.rank == 0 && !opts->quiet) {
+            if (r.frames_skipped)
+                say(&r, "dtx: resuming %s: %lld frames already done, %lld to do", r.partial,
+                    (long long)r.frames_skipped, (long long)r.frames_todo);
+            dtx_progress_start(&r.prog, stderr, -1, 10.0, r.frames_todo, wtime());
+        }
+        if ((st = transfer_all(&r, err)) != DTX_OK)
+            goto fail;
+        for (int t = 0; t < r.nt; t++)
+            for (int s = 0; s < r.ns; s++) {
+                const run_stats *p = &RESULT(&r, t, s)->st;
+                r.stats.frames += p->frames;
+                r.stats.sum += p->sum;
+                r.stats.sumsq += p->sumsq;
+                r.stats.min = p->min < r.stats.min ? p->min : r.stats.min;
+                r.stats.max = p->max > r.stats.max ? p->max : r.stats.max;
+            }
+        if ((st = finish_output(&r, err)) != DTX_OK)
+            goto fail;
+        if (r.rank == 0)
+            dtx_progress_finish(&r.prog, wtime());
+        memset(&r.prog, 0, sizeof r.prog);
     }
-
-    st = dtx_h5_close(&out, err);
-    if (agree(comm, st, err) != DTX_OK)
-        goto fail;
-    if (rank == 0 && rename(tmp_out, job.output_file) != 0)
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename the finished output into place: %s",
-                        job.output_file, strerror(errno));
-    if (agree(comm, st, err) != DTX_OK)
-        goto fail;
-    tm.total = wtime() - t_start;
-
-    /* Summary: frames and residuals summed over ranks, times of rank 0. */
-    MPI_Reduce(&stats.frames, &total.frames, 1, MPI_INT64_T, MPI_SUM, 0, comm);
-    MPI_Reduce(&stats.res_sum, &total.res_sum, 1, MPI_DOUBLE, MPI_SUM, 0, comm);
-    MPI_Reduce(&stats.res_max, &total.res_max, 1, MPI_DOUBLE, MPI_MAX, 0, comm);
-    if (rank == 0) {
-        char sp[4200];
-        if (opts->summary_path)
-            snprintf(sp, sizeof sp, "%s", opts->summary_path);
-        else
-            snprintf(sp, sizeof sp, "%s.summary.json", job.output_file);
-        write_summary(sp, &job, nranks, nthreads, &tm, &total);
-        if (!opts->quiet)
-            fprintf(stderr,
-                    "dtx: %lld frames in %.3f s (%.1f frames/s) on %d rank(s) x %d thread(s); "
-                    "read %.3f s, correspondence %.3f s, factor %.3f s, transfer %.3f s, "
-                    "write %.3f s; mean residual %.4g\n"
-                    "dtx: result: %s\n",
-                    (long long)total.frames, tm.total, tm.total > 0 ? total.frames / tm.total : 0,
-                    nranks, nthreads, tm.read, tm.correspond, tm.factor, tm.transfer, tm.write,
-                    total.frames ? total.res_sum / total.frames : 0.0, job.output_file);
-    }
-    dtx_h5_close(&src_file, NULL);
-    dtx_mesh_free(&src);
-    dtx_job_free(&job);
+    r.tm.total = wtime() - t_start;
+    /* Per-result statistics of all ranks, on rank 0. */
+    for (int t = 0; t < r.nt; t++)
+        for (int s = 0; s < r.ns; s++) {
+            run_stats all;
+            stats_init(&all);
+            stats_reduce(comm, &RESULT(&r, t, s)->st, &all);
+            if (r.rank == 0)
+                RESULT(&r, t, s)->st = all;
+        }
+    summarise(&r);
+    release(&r);
     return DTX_OK;
 
 fail:
-    if (out >= 0)
-        dtx_h5_close(&out, NULL);
-    if (rank == 0 && tmp_out[0])
-        remove(tmp_out);
-    if (src_file >= 0)
-        dtx_h5_close(&src_file, NULL);
-    dtx_mesh_free(&src);
-    dtx_job_free(&job);
+    if (r.rank == 0 && r.prog.out)
+        dtx_progress_message(&r.prog, "");
+    memset(&r.prog, 0, sizeof r.prog);
+    if (out_started && r.rank == 0 && !opts->quiet && access(r.partial, F_OK) == 0)
+        fprintf(stderr,
+                "dtx: the frames done so far are kept in %s; `dtx run --resume %s` continues "
+                "from there\n",
+                r.partial, job_path);
+    release(&r);
     return st != DTX_OK ? st : err->code;
 }
