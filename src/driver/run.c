@@ -105,6 +105,7 @@ typedef struct {
     int nt, ns;
     target_ctx *tg;
     seq_ctx *sq;
+    char **seq_paths; /* the job's sequences, wildcards expanded: ns paths */
     result_ctx *rs; /* nt x ns, result of target t and sequence s at t * ns + s */
     phase_times tm;
     run_stats stats;
@@ -377,21 +378,80 @@ static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_er
 /* 2. Inputs (every rank, read-only)                                   */
 /* ------------------------------------------------------------------ */
 
+/* The job's sequence list with every entry whose last component is "*"
+ * (a wildcard) replaced by the groups directly under its parent group, in
+ * name order: r->seq_paths[0 .. r->ns). */
+static dtx_status expand_sequences(run_state *r, dtx_error *err)
+{
+    int64_t n = 0, cap = 0;
+    dtx_status st = DTX_OK;
+    for (int32_t i = 0; i < r->job.nsequences && st == DTX_OK; i++) {
+        const char *p = r->job.sequences[i];
+        size_t len = strlen(p);
+        char **names = NULL, parent[DTX_H5_PATH_MAX];
+        int64_t nn = 1;
+        if (len >= 2 && strcmp(p + len - 2, "/*") == 0) {
+            snprintf(parent, sizeof parent, "%.*s", (int)(len - 2), p);
+            if (!parent[0])
+                strcpy(parent, "/");
+            st = dtx_h5_list_groups(r->src_file, parent, &names, &nn, err);
+            if (st == DTX_OK && nn == 0)
+                st = dtx_seterr(err, DTX_EJOB, "%s: /source/sequences/%d: %s has no groups in %s",
+                                r->job.job_path ? r->job.job_path : "job", (int)i, parent,
+                                r->job.source_file);
+            if (st != DTX_OK)
+                break;
+        }
+        if (n + nn > cap) {
+            int64_t nc = (n + nn) * 2;
+            char **q = realloc(r->seq_paths, (size_t)nc * sizeof *q);
+            if (!q) {
+                dtx_h5_free_strings(&names, nn);
+                st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+                break;
+            }
+            r->seq_paths = q;
+            cap = nc;
+        }
+        for (int64_t k = 0; k < nn && st == DTX_OK; k++) {
+            char full[DTX_H5_PATH_MAX];
+            if (names)
+                snprintf(full, sizeof full, "%s/%s", strcmp(parent, "/") ? parent : "",
+                         names[k]);
+            else
+                snprintf(full, sizeof full, "%s", p);
+            if (!(r->seq_paths[n] = strdup(full)))
+                st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            else
+                n++;
+        }
+        dtx_h5_free_strings(&names, nn);
+    }
+    r->ns = (int)n;
+    if (st == DTX_OK && n > INT_MAX / 2)
+        st = dtx_seterr(err, DTX_EJOB, "too many sequences");
+    return st;
+}
+
 static dtx_status read_sequences(run_state *r, dtx_error *err)
 {
-    dtx_status st = DTX_OK;
+    dtx_status st = expand_sequences(r, err);
+    if (st == DTX_OK && !(r->sq = calloc((size_t)r->ns, sizeof *r->sq)))
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    if (st == DTX_OK && !(r->rs = dtx_alloc((size_t)r->nt * (size_t)r->ns, sizeof *r->rs, 1)))
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
     for (int s = 0; s < r->ns && st == DTX_OK; s++) {
         seq_ctx *sc = &r->sq[s];
-        sc->path = r->job.sequences[s];
+        sc->path = r->seq_paths[s];
         sc->name = base_name(sc->path);
         for (int s2 = 0; s2 < s; s2++)
             if (strcmp(r->sq[s2].name, sc->name) == 0)
                 return dtx_seterr(err, DTX_EJOB,
-                                  "%s: /source/sequences/%d (%s) and /source/sequences/%d (%s) "
-                                  "would both give results named \"%s\" (results are named "
-                                  "after the last component of the sequence path)",
-                                  r->job.job_path ? r->job.job_path : "job", s2, r->sq[s2].path,
-                                  s, sc->path, sc->name);
+                                  "%s: /source/sequences: %s and %s would both give results "
+                                  "named \"%s\" (results are named after the last component "
+                                  "of the sequence path)",
+                                  r->job.job_path ? r->job.job_path : "job", r->sq[s2].path,
+                                  sc->path, sc->name);
         st = dtx_h5_seq_open(r->src_file, sc->path, &sc->seq, err);
         if (st != DTX_OK)
             break;
@@ -459,11 +519,8 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
     double t0 = wtime();
     char *params = dtx_job_params_json(&r->job);
     r->nt = r->job.ntargets;
-    r->ns = r->job.nsequences;
     r->tg = calloc((size_t)r->nt, sizeof *r->tg);
-    r->sq = calloc((size_t)r->ns, sizeof *r->sq);
-    r->rs = dtx_alloc((size_t)r->nt * (size_t)r->ns, sizeof *r->rs, 1);
-    if (!params || !r->tg || !r->sq || !r->rs)
+    if (!params || !r->tg)
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
     if (st == DTX_OK)
         st = dtx_h5_open(r->job.source_file, MPI_COMM_NULL, 0, &r->src_file, err);
@@ -1220,6 +1277,9 @@ static void release(run_state *r)
     free(r->tg);
     free(r->sq);
     free(r->rs);
+    for (int s = 0; r->seq_paths && s < r->ns; s++)
+        free(r->seq_paths[s]);
+    free(r->seq_paths);
     dtx_job_free(&r->job);
 }
 

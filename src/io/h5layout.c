@@ -2006,6 +2006,49 @@ static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void
     return 0;
 }
 
+static int cmp_str(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+dtx_status dtx_h5_list_groups(hid_t file, const char *path, char ***names, int64_t *n,
+                              dtx_error *err)
+{
+    name_list l = {NULL, 0, 0, 0};
+    char child[DTX_H5_PATH_MAX];
+    size_t kept = 0;
+    *names = NULL;
+    *n = 0;
+    if (object_type(file, path) != H5O_TYPE_GROUP)
+        return ferr(err, DTX_EFORMAT, file, path, "missing (no such group)");
+    if (H5Literate_by_name(file, path, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, &l,
+                           H5P_DEFAULT) < 0) {
+        dtx_status st = l.oom ? ferr(err, DTX_ENOMEM, file, path, "out of memory")
+                              : h5err(err, file, path, "cannot list the group");
+        for (size_t i = 0; i < l.n; i++)
+            free(l.names[i]);
+        free(l.names);
+        return st;
+    }
+    for (size_t i = 0; i < l.n; i++) {
+        if (strncmp(l.names[i], DTX_H5_TMP_PREFIX, strlen(DTX_H5_TMP_PREFIX)) != 0 &&
+            !join_path(path, l.names[i], child, sizeof child) &&
+            object_type(file, child) == H5O_TYPE_GROUP)
+            l.names[kept++] = l.names[i];
+        else
+            free(l.names[i]);
+    }
+    if (kept > 1)
+        qsort(l.names, kept, sizeof *l.names, cmp_str);
+    if (kept == 0) {
+        free(l.names);
+        l.names = NULL;
+    }
+    *names = l.names;
+    *n = (int64_t)kept;
+    return DTX_OK;
+}
+
 dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out,
                                    dtx_error *err)
 {

@@ -154,6 +154,14 @@ dtx_status dtx_h5_commit_group(hid_t file, const char *tmp, const char *final, i
  * not reclaim the space (h5repack does). */
 dtx_status dtx_h5_remove(hid_t file, const char *path, dtx_error *err);
 
+/* The names of the groups directly under the group at path (a soft link
+ * that resolves to a group counts; objects under a temporary name are
+ * skipped), sorted by strcmp.  *names receives a
+ * malloc'ed array of *n malloc'ed strings (free with dtx_h5_free_strings),
+ * NULL when there are none.  DTX_EFORMAT when path is not a group. */
+dtx_status dtx_h5_list_groups(hid_t file, const char *path, char ***names, int64_t *n,
+                              dtx_error *err);
+
 /* ------------------------------------------------------------- attributes */
 
 /* Attributes of the object at obj (a path relative to loc, "." for loc

@@ -87,7 +87,7 @@ const char *const dtx_job_schema_lines[] = {
     "          \"$ref\": \"#/$defs/h5path\"\n",
     "        },\n",
     "        \"sequences\": {\n",
-    "          \"description\": \"HDF5 paths of the source animation sequences to transfer, each a sequence of poses of the source mesh. Each is transferred onto every target.\",\n",
+    "          \"description\": \"HDF5 paths of the source animation sequences to transfer, each a sequence of poses of the source mesh. Each is transferred onto every target. An entry whose last component is * (such as /sequences/*) stands for every group directly under its parent, in name order.\",\n",
     "          \"type\": \"array\",\n",
     "          \"minItems\": 1,\n",
     "          \"items\": {\n",

@@ -182,6 +182,38 @@ static void test_paths(void)
     CHECK(H5Lcreate_soft("/nowhere", g, "dangling", H5P_DEFAULT, H5P_DEFAULT) >= 0);
     H5Gclose(g);
     CHECK_EQ_INT(dtx_h5_path_exists(f, "/things/dangling"), 0);
+
+    /* Listing: groups only, sorted, temporary names and datasets skipped. */
+    {
+        char **names = NULL;
+        int64_t n = -1;
+        hsize_t dim = 1;
+        hid_t sp = H5Screate_simple(1, &dim, NULL), d;
+        CHECK_OK(dtx_h5_create_groups(f, "/list/walk", &e), &e);
+        CHECK_OK(dtx_h5_create_groups(f, "/list/gallop", &e), &e);
+        CHECK_OK(dtx_h5_create_groups(f, "/list/.dtx-tmp-run", &e), &e);
+        CHECK_OK(dtx_h5_create_groups(f, "/list/Zebra", &e), &e);
+        d = H5Dcreate2(f, "/list/data", H5T_NATIVE_INT, sp, H5P_DEFAULT, H5P_DEFAULT,
+                       H5P_DEFAULT);
+        CHECK(d >= 0);
+        H5Dclose(d);
+        H5Sclose(sp);
+        CHECK_OK(dtx_h5_list_groups(f, "/list", &names, &n, &e), &e);
+        CHECK_EQ_INT(n, 3);
+        if (n == 3) {
+            CHECK(strcmp(names[0], "Zebra") == 0);
+            CHECK(strcmp(names[1], "gallop") == 0);
+            CHECK(strcmp(names[2], "walk") == 0);
+        }
+        dtx_h5_free_strings(&names, n);
+        CHECK(names == NULL);
+        CHECK_OK(dtx_h5_list_groups(f, "/list/walk", &names, &n, &e), &e);
+        CHECK_EQ_INT(n, 0);
+        CHECK(names == NULL);
+        CHECK_EQ_INT(dtx_h5_list_groups(f, "/list/data", &names, &n, &e), DTX_EFORMAT);
+        CHECK(contains(e.msg, "/list/data"));
+        CHECK_EQ_INT(dtx_h5_list_groups(f, "/absent", &names, &n, &e), DTX_EFORMAT);
+    }
     CHECK_OK(dtx_h5_close(&f, &e), &e);
     CHECK(f < 0);
     CHECK_OK(dtx_h5_close(&f, &e), &e); /* closing twice is a no-op */
