@@ -1,51 +1,117 @@
 #!/usr/bin/env bash
-# bench.sh: speed figures for cat -> lion (printed, never asserted).
+# bench.sh: speed and memory figures (printed, never asserted).
 #
-# Usage: scripts/bench.sh [NFRAMES]      (default 2000)
-#   1. In memory (tests/bench/bench_sp04.c): correspondence, factorisation,
-#      transfer time per frame at 1 and 2 threads, and a bare CHOLMOD
-#      back-substitution on the same factor measured in the same run.
-#   2. End to end, HDF5 -> HDF5 with `dtx run`: a NFRAMES-frame sequence made
-#      by blending the 9 cat poses, at 1 rank x 1 thread, 2 ranks x 1 thread
-#      and 1 rank x 2 threads; frames/s and per-phase times from the run
-#      summary.  Set DTX_SKIP_SETUP=1 to skip scripts/setup.sh.
+# Usage: scripts/bench.sh [NFRAMES]      (default 20000)
+#   1. In memory (dtx_bench sp04): correspondence, factorisation, transfer time
+#      per frame at 1 and 2 threads, and a bare CHOLMOD back-substitution loop
+#      on the same factor, measured in the same run.
+#   2. End to end, HDF5 -> HDF5 with `dtx run`, cat -> lion: an NFRAMES-frame
+#      sequence made by blending the 9 cat poses, at 1 rank x 1 thread,
+#      2 ranks x 1 thread and 1 rank x 2 threads: frames/s, parallel
+#      efficiency, peak memory per rank, and time per frame over the bare
+#      back-substitution of step 1.
+#   3. Memory: the same job on 200 frames, peak memory against NFRAMES.
+#   4. Horse gallop -> camel (22k-vertex target) when the shared data is there
+#      (DTX_SHARED_DATA, default ../shared/data next to the repository).
+# Environment: DTX_SKIP_SETUP=1 skips scripts/setup.sh; DTX_BENCH_DIR (default
+# build/bench) holds the generated files (NFRAMES=20000 needs about 3 GB).
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$repo"
-n=${1:-2000}
+n=${1:-20000}
 if [[ ${DTX_SKIP_SETUP:-0} != 1 ]]; then scripts/setup.sh; fi
 DTX_SKIP_SETUP=1 scripts/build.sh >/dev/null
 scripts/unpack-data.sh build/data >/dev/null
-data=build/data/sumner-cat-lion
-work=build/bench
+shared=${DTX_SHARED_DATA:-$repo/../shared/data}
+work=${DTX_BENCH_DIR:-build/bench}
 mkdir -p "$work"
 export OPENBLAS_NUM_THREADS=1
 if [[ $(id -u) -eq 0 ]]; then export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1; fi
+py=/usr/bin/python3
+[[ -x $py ]] || py=python3
 
-echo "== in memory"
-for t in 1 2; do OMP_NUM_THREADS=$t build/dtx_bench sp04 "$data" 512; done
+# summary FILE EXPR: a value from a run summary (Python expression over d).
+summary() { "$py" -c "import json,sys; d=json.load(open(sys.argv[1])); print($2)" "$1"; }
 
-echo "== end to end, HDF5 -> HDF5, $n frames"
-rm -f "$work/long.h5"
-build/dtx_bench make-sequence "$data" "$work/long.h5" "$n" >/dev/null
-cat > "$work/long.json" <<JOB
+# job NAME SRC TGT MARKERS: a job over $work/NAME.h5 writing $work/NAME-result.h5.
+job() {
+    cat > "$work/$1.json" <<JOB
 {
   "dtx_job": 1,
   "method": "sp04",
-  "source": {"file": "long.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/long"]},
-  "targets": [{"name": "lion", "file": "long.h5", "mesh": "/meshes/lion",
-               "markers": {"file": "long.h5", "path": "/markers/cat-lion"}}],
-  "output": {"file": "long-result.h5"}
+  "source": {"file": "$1.h5", "mesh": "/meshes/$2", "sequences": ["/sequences/long"]},
+  "targets": [{"name": "$3", "file": "$1.h5", "mesh": "/meshes/$3",
+               "markers": {"file": "$1.h5", "path": "/markers/$4"}}],
+  "output": {"file": "$1-result.h5"}
 }
 JOB
-# The first run computes the correspondence; the timed runs reuse it from
-# the output's cache, so they measure the frame loop.
-OMP_NUM_THREADS=1 mpirun -np 1 build/dtx run --quiet "$work/long.json"
-fps() { sed -n 's/.*"frames_per_second": \([0-9.]*\).*/\1/p' "$work/long-result.h5.summary.json"; }
-line() { sed -n 's/.*"seconds": \(.*\),$/\1/p' "$work/long-result.h5.summary.json"; }
-for cfg in "1 1" "2 1" "1 2"; do
-    set -- $cfg
-    # OpenMPI binds each rank to one core by default: threads need --bind-to none.
-    OMP_NUM_THREADS=$2 mpirun --bind-to none --oversubscribe -np "$1" build/dtx run --quiet "$work/long.json"
-    printf '  %s rank(s) x %s thread(s): %8.1f frames/s   %s\n' "$1" "$2" "$(fps)" "$(line)"
+}
+
+# run NAME RANKS THREADS: one timed run; prints a line, leaves the summary.
+# OpenMPI binds each rank to one core by default: threads need --bind-to none.
+run() {
+    OMP_NUM_THREADS=$3 mpirun --bind-to none --oversubscribe -np "$2" \
+        build/dtx run --quiet "$work/$1.json"
+    cp "$work/$1-result.h5.summary.json" "$work/$1-$2x$3.summary.json"
+}
+
+# bare DIR: the bare back-substitution per frame (ms), 3 columns per call.
+bare_ms() { sed -n 's/.*bare back-substitution *\([0-9.]*\) ms.*/\1/p' | head -n 1; }
+
+# end_to_end NAME DATA_DIR SRC TGT MARKERS NFRAMES BARE_MS
+end_to_end() {
+    local name=$1 data=$2 src=$3 tgt=$4 mk=$5 nf=$6 bare=$7 s f1 f2 f3
+    rm -f "$work/$name.h5" "$work/$name-result.h5"
+    build/dtx_bench make-sequence "$data" "$work/$name.h5" "$nf" >/dev/null
+    job "$name" "$src" "$tgt" "$mk"
+    # The first run computes the correspondence; the timed runs reuse it from
+    # the output's cache, so they measure the frame loop end to end.
+    OMP_NUM_THREADS=2 mpirun --bind-to none -np 1 build/dtx run --quiet "$work/$name.json"
+    for cfg in "1 1" "2 1" "1 2"; do
+        set -- $cfg
+        run "$name" "$1" "$2"
+        s=$work/$name-$1x$2.summary.json
+        printf '  %s rank(s) x %s thread(s): %8.1f frames/s  %6.3f ms/frame  peak %6.1f MB/rank  %s\n' \
+            "$1" "$2" "$(summary "$s" "d['frames_per_second']")" \
+            "$(summary "$s" "1e3/d['frames_per_second']")" \
+            "$(summary "$s" "d['peak_rss_mb']")" "$(summary "$s" "d['seconds']")"
+    done
+    f1=$(summary "$work/$name-1x1.summary.json" "d['frames_per_second']")
+    f2=$(summary "$work/$name-2x1.summary.json" "d['frames_per_second']")
+    f3=$(summary "$work/$name-1x2.summary.json" "d['frames_per_second']")
+    "$py" - "$f1" "$f2" "$f3" "$bare" <<'PY'
+import sys
+f1, f2, f3, bare = map(float, sys.argv[1:])
+print(f"  parallel efficiency 1 -> 2 cores: {100*f2/(2*f1):.0f}% (2 ranks), {100*f3/(2*f1):.0f}% (2 threads)")
+print(f"  end-to-end time per frame / bare back-substitution (1 core): {1e3/f1/bare:.2f}")
+PY
+}
+
+echo "== in memory, cat -> lion"
+for t in 1 2; do OMP_NUM_THREADS=$t build/dtx_bench sp04 build/data/sumner-cat-lion 1024 | tee "$work/mem-cat-$t.txt"; done
+bare_cat=$(bare_ms < "$work/mem-cat-1.txt")
+
+echo "== end to end, HDF5 -> HDF5, cat -> lion, $n frames"
+end_to_end long build/data/sumner-cat-lion cat lion cat-lion "$n" "$bare_cat"
+
+echo "== memory: 200 frames against $n"
+end_to_end short build/data/sumner-cat-lion cat lion cat-lion 200 "$bare_cat" >/dev/null
+for cfg in 1x1 2x1; do
+    a=$(summary "$work/short-$cfg.summary.json" "d['peak_rss_mb']")
+    b=$(summary "$work/long-$cfg.summary.json" "d['peak_rss_mb']")
+    "$py" -c "import sys; a,b=map(float,sys.argv[2:]); print(f'  {sys.argv[1]}: peak {a:.1f} MB/rank for 200 frames, {b:.1f} MB/rank for $n: ratio {b/a:.3f}')" "$cfg" "$a" "$b"
 done
+rm -f "$work/short.h5" "$work/short-result.h5"
+
+if [[ -d $shared/sumner-horse-camel ]]; then
+    hn=$((n / 4))
+    echo "== in memory, horse -> camel"
+    for t in 1 2; do OMP_NUM_THREADS=$t build/dtx_bench sp04 "$shared/sumner-horse-camel" 256 | tee "$work/mem-horse-$t.txt"; done
+    bare_horse=$(bare_ms < "$work/mem-horse-1.txt")
+    echo "== end to end, HDF5 -> HDF5, horse gallop -> camel, $hn frames"
+    end_to_end horse "$shared/sumner-horse-camel" horse-gallop camel horse-gallop-camel "$hn" "$bare_horse"
+    rm -f "$work/horse.h5" "$work/horse-result.h5"
+else
+    echo "== horse -> camel skipped: no $shared/sumner-horse-camel"
+fi
+echo "bench: files in $work (long.h5 and long-result.h5 are large: remove them when done)"
