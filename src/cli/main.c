@@ -13,6 +13,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -498,7 +499,7 @@ static int cmd_run(int argc, char **argv)
     dtx_error err;
     dtx_status st;
     char *pos[2];
-    int rank = 0, provided;
+    int rank = 0, provided, stuck;
     memset(&o, 0, sizeof o);
     if (positionals(argc, argv, 2, pos, 2) != 1)
         return usage("run needs one job file");
@@ -513,7 +514,15 @@ static int cmd_run(int argc, char **argv)
     st = dtx_run_job(pos[0], MPI_COMM_WORLD, &o, &err);
     if (st != DTX_OK && rank == 0)
         fail(&err);
+    /* After a failed write (disk full) HDF5 can hold a file it could not
+     * close, and its exit handler would crash closing it again after
+     * MPI_Finalize: leave without running exit handlers then. */
+    stuck = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0;
     MPI_Finalize();
+    if (stuck) {
+        fflush(NULL);
+        _exit(st == DTX_OK ? 0 : 1);
+    }
     return st == DTX_OK ? 0 : 1;
 }
 
@@ -521,6 +530,9 @@ int main(int argc, char **argv)
 {
     if (argc < 2)
         return usage(NULL);
+    /* A file-size limit (ulimit -f) must make a write fail with EFBIG and
+     * a message, not kill the process half-way. */
+    signal(SIGXFSZ, SIG_IGN);
     dtx_h5_init();
     if (strcmp(argv[1], "import") == 0 && argc >= 3) {
         if (strcmp(argv[2], "mesh") == 0)

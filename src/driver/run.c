@@ -149,6 +149,20 @@ static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
 
 static double wtime(void) { return MPI_Wtime(); }
 
+/* Fault injection for the tests: with DTX_FAULT=PHASE@RANK in the
+ * environment, rank RANK fails at phase PHASE (read, correspondence,
+ * output, transfer, finish) as a real error there would. */
+static dtx_status injected_fault(const run_state *r, const char *phase, dtx_error *err)
+{
+    const char *f = getenv("DTX_FAULT");
+    const char *at = f ? strchr(f, '@') : NULL;
+    if (!at || (size_t)(at - f) != strlen(phase) || strncmp(f, phase, strlen(phase)) != 0 ||
+        atoi(at + 1) != r->rank)
+        return DTX_OK;
+    return dtx_seterr(err, DTX_EIO, "injected fault at phase %s on rank %d (DTX_FAULT=%s)",
+                      phase, r->rank, f);
+}
+
 /* A message from rank 0 on stderr (not with --quiet). */
 static void say(run_state *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 static void say(run_state *r, const char *fmt, ...)
@@ -532,6 +546,8 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
         st = read_sequences(r, err);
     if (st == DTX_OK)
         run_key(r);
+    if (st == DTX_OK)
+        st = injected_fault(r, "read", err);
     free(params);
     r->tm.read += wtime() - t0;
     return agree(r->comm, st, err);
@@ -590,7 +606,6 @@ static out_mode decide_mode(run_state *r)
         if (access(r->job.output_file, F_OK) == 0 &&
             file_matches(r, r->job.output_file, 1, why, sizeof why))
             return OUT_DONE;
-        say(r, "dtx: no interrupted run of this job to continue: running it from the start");
         return OUT_FRESH;
     }
     if (has_partial)
@@ -692,6 +707,7 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     MPI_Bcast(reused, r->nt, MPI_INT, 0, r->comm);
     assign_owners(r, reused);
     corr_params_from_job(&r->job, &prm);
+    st = injected_fault(r, "correspondence", err);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
         tc->reused = reused[t];
@@ -734,9 +750,9 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         if (st == DTX_OK && remove(r->partial) != 0 && errno != ENOENT)
             st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", r->partial, strerror(errno));
     }
-    if (agree(r->comm, st, err) != DTX_OK)
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
-    if (agree(r->comm, dtx_h5_create(r->partial, r->comm, &r->out, err), err) != DTX_OK)
+    if ((st = agree(r->comm, dtx_h5_create(r->partial, r->comm, &r->out, err), err)) != DTX_OK)
         goto done;
     st = params ? dtx_h5_write_attr_str(r->out, ".", "dtx_run_key", r->run_key, err)
                 : dtx_seterr(err, DTX_ENOMEM, "out of memory");
@@ -782,6 +798,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     /* Everything the frame loop needs exists on disk before any frame. */
     if (st == DTX_OK)
         st = dtx_h5_flush(r->out, err);
+    if (st == DTX_OK)
+        st = injected_fault(r, "output", err);
 done:
     free(params);
     return agree(r->comm, st, err);
@@ -936,7 +954,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
 
     stats_init(&rc->st);
     st = groups_todo(rc, &todo, &ntodo, &skipped, err);
-    if (agree(r->comm, st, err) != DTX_OK)
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
     for (int q = 0; q < r->nranks; q++) {
         int64_t qa, qb, n;
@@ -947,14 +965,14 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
     rank_range(ntodo, r->nranks, r->rank, rot, &a, &b);
     seg = dtx_alloc((size_t)(b - a) + 1, sizeof *seg, 0);
     st = seg ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    if (agree(r->comm, st, err) != DTX_OK)
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
     nseg = segments(todo, a, b, gpb, seg);
     if (r->job.export_obj_dir && ntodo > 0) {
         char dir[4096];
         snprintf(dir, sizeof dir, "%s/%s/%s", r->job.export_obj_dir, tc->tj->name, sc->name);
         st = r->rank == 0 ? make_dirs(dir, 0, err) : DTX_OK;
-        if (agree(r->comm, st, err) != DTX_OK)
+        if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
     }
 
@@ -971,6 +989,8 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
         t1 = wtime();
         if (st == DTX_OK && n > 0)
             st = dtx_sp04_apply(plan, n, fb->Xs, fb->Xt, fb->res, err);
+        if (st == DTX_OK && k == nseg_max / 2)
+            st = injected_fault(r, "transfer", err);
         t2 = wtime();
         for (int64_t i = 0; st == DTX_OK && i < n; i++) {
             if (!isfinite(fb->res[i])) {
@@ -983,7 +1003,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
             }
             stats_add(&rc->st, fb->res[i]);
         }
-        if (agree(r->comm, st, err) != DTX_OK)
+        if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
         st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, 1, err);
         if (st == DTX_OK && r->job.export_obj_dir)
@@ -991,7 +1011,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
         r->tm.read += t1 - t0;
         r->tm.transfer += t2 - t1;
         r->tm.write += wtime() - t2;
-        if (agree(r->comm, st, err) != DTX_OK)
+        if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
         progress_step(r, n);
     }
@@ -1040,7 +1060,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
     st = fb.Xs && fb.Xt && fb.res ? DTX_OK
                                    : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
-    if (agree(r->comm, st, err) != DTX_OK)
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
 
     for (int t = 0; t < r->nt; t++) {
@@ -1075,7 +1095,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
         free(pin_idx);
         free(pin_pos);
         r->tm.factor += wtime() - t0;
-        if (agree(r->comm, st, err) != DTX_OK)
+        if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
         for (int s = 0; s < r->ns && st == DTX_OK; s++)
             if (!RESULT(r, t, s)->finished)
@@ -1099,6 +1119,8 @@ static dtx_status finish_output(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     double t0 = wtime();
+    if (agree(r->comm, injected_fault(r, "finish", err), err) != DTX_OK)
+        return err->code;
     for (int t = 0; t < r->nt; t++)
         for (int s = 0; s < r->ns; s++) {
             result_ctx *rc = RESULT(r, t, s);
@@ -1228,7 +1250,9 @@ static void summarise(run_state *r)
         free(rss);
         return;
     }
-    {
+    /* A run that found nothing to do keeps the summary of the run that did
+     * the work, unless a summary file was asked for. */
+    if (r->mode != OUT_DONE || r->opts->summary_path) {
         char sp[4200];
         if (r->opts->summary_path)
             snprintf(sp, sizeof sp, "%s", r->opts->summary_path);

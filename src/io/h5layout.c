@@ -78,8 +78,14 @@ static dtx_status failv(dtx_error *err, dtx_status code, hid_t id, const char *f
                         const char *path, int h5, const char *fmt, va_list ap)
 {
     char detail[400] = "", name[400], msg[700];
+    int sys = errno;
     if (h5)
         h5_detail(detail, sizeof detail);
+    /* MPI-IO and HDF5 often lose the reason of a failed write; the system
+     * error says it when it is one that only writes give. */
+    if (h5 && !detail[0] &&
+        (sys == ENOSPC || sys == EFBIG || sys == EDQUOT || sys == EROFS || sys == EIO))
+        snprintf(detail, sizeof detail, "system: %s", strerror(sys));
     if (!fname)
         fname = dtx_h5_filename(id, name, sizeof name);
     vsnprintf(msg, sizeof msg, fmt, ap);

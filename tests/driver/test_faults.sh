@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Faults during a run: an error on one rank of three ends the whole job
+# promptly with that rank's message and a non-zero exit, at every phase; an
+# output that cannot be written (file-size limit) fails cleanly; in both
+# cases an earlier complete output stays exactly as it was and no OUTPUT
+# appears that is not complete.
+set -euo pipefail
+D="$DTX_BUILD/data/sumner-cat-lion"
+W="$DTX_TESTDATA"
+fails=0
+check() { # check DESCRIPTION COMMAND...
+    local what=$1; shift
+    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
+}
+rm -rf "${W:?}"/*
+"$DTX" import mesh "$D/source/cat-reference.obj" -o "$W/in.h5" --name cat
+"$DTX" import mesh "$D/target/lion-reference.obj" -o "$W/in.h5" --name lion
+"$DTX" import sequence "$D"/source/cat-0[1-9].obj "$D"/source/cat-0[1-9].obj \
+    "$D"/source/cat-0[1-9].obj -o "$W/in.h5" --name poses --mesh /meshes/cat
+"$DTX" import markers "$D/markers.csv" --index-base 0 -o "$W/in.h5" --name m \
+    --source /meshes/cat --target /meshes/lion
+cat > "$W/job.json" <<JOB
+{
+  "dtx_job": 1,
+  "method": "sp04",
+  "source": {"file": "in.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/poses"]},
+  "targets": [{"name": "lion", "file": "in.h5", "mesh": "/meshes/lion",
+               "markers": {"file": "in.h5", "path": "/markers/m"}}],
+  "output": {"file": "out.h5", "block_frames": 8}
+}
+JOB
+mpi=(mpirun --oversubscribe --bind-to none)
+OMP_NUM_THREADS=1 "${mpi[@]}" -np 1 "$DTX" run --quiet "$W/job.json"
+before=$(cksum < "$W/out.h5")
+
+# An error on rank 1 of 3, at each phase.
+for phase in read correspondence output transfer finish; do
+    start=$(date +%s)
+    set +e
+    DTX_FAULT="$phase@1" OMP_NUM_THREADS=1 timeout 60 "${mpi[@]}" -np 3 -x DTX_FAULT \
+        "$DTX" run "$W/job.json" > "$W/$phase.out" 2> "$W/$phase.err"
+    rc=$?
+    set -e
+    took=$(($(date +%s) - start))
+    check "$phase fault on rank 1: non-zero exit ($rc), not a timeout" \
+        test "$rc" -ne 0 -a "$rc" -ne 124
+    check "$phase fault: ended in ${took} s (< 30 s)" test "$took" -lt 30
+    check "$phase fault: rank 1's message" grep -q "rank 1.*injected fault at phase $phase" \
+        "$W/$phase.err"
+    check "$phase fault: earlier output unchanged" test "$(cksum < "$W/out.h5")" = "$before"
+done
+grep -h "error" "$W/transfer.err" | head -n 2
+
+# Disk full, simulated by a file-size limit below the result's size: the run
+# fails with a message naming the file, the old output survives.
+set +e
+# (A plain singleton run: PMIx and OpenMPI's shared memory would trip over
+# the limit themselves, so they are told to keep their data in memory.)
+(ulimit -f 2000; PMIX_MCA_gds=hash OMPI_MCA_btl=self OMP_NUM_THREADS=1 \
+    "$DTX" run --quiet "$W/job.json") 2> "$W/fsize.err"
+rc=$?
+set -e
+check "file-size limit: non-zero exit ($rc), not a crash" test "$rc" -ne 0 -a "$rc" -lt 128
+check "file-size limit: message names the output and the reason" \
+    grep -q "dtx: error: .*out.h5.partial: .*File too large" "$W/fsize.err"
+check "file-size limit: earlier output unchanged" test "$(cksum < "$W/out.h5")" = "$before"
+head -c 400 "$W/fsize.err"; echo
+# The same run without the limit completes (resuming what was written).
+OMP_NUM_THREADS=1 "$DTX" run --quiet --resume "$W/job.json"
+check "after the failure, --resume completes a valid output" "$DTX" validate "$W/out.h5"
+
+echo "faults: $fails failed"
+test "$fails" -eq 0
