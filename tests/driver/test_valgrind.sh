@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# Valgrind memcheck of a small job run end to end (import, run with the
+# correspondence computed, --resume of a finished output, validate, export,
+# a bad job, a run failing half-way):
+# zero errors and zero bytes lost in dtx, HDF5 or CHOLMOD (tests/valgrind.supp
+# only holds OpenMPI's own start-up allocations).  Skipped in the sanitizer
+# build (ASan and valgrind do not mix).
+set -euo pipefail
+if ldd "$DTX" | grep -q libasan; then echo "skipped: sanitizer build"; exit 0; fi
+command -v valgrind > /dev/null || { echo "FAILED: valgrind is not installed"; exit 1; }
+D="$DTX_BUILD/data/sumner-cat-lion"
+W="$DTX_TESTDATA"
+rm -rf "${W:?}"/*
+fails=0
+vg() { # vg [!] NAME ARGS...: dtx under memcheck; fails on any error or leak ("!": dtx must fail)
+    local expect=0 name rc
+    if [ "$1" = "!" ]; then expect=1; shift; fi
+    name=$1; shift
+    set +e
+    valgrind -q --num-callers=60 --error-exitcode=99 --leak-check=full \
+        --show-leak-kinds=definite,indirect,possible --errors-for-leak-kinds=definite,indirect,possible \
+        --suppressions="$DTX_SRC/tests/valgrind.supp" --log-file="$W/$name.vg" "$DTX" "$@" \
+        > "$W/$name.out" 2>&1
+    rc=$?
+    set -e
+    local failed=$((rc != 0))
+    if [ $rc -ne 99 ] && [ $failed -eq $expect ]; then
+        echo "ok: $name: exit $rc, no memcheck error, no leak"
+    else
+        echo "FAILED: $name (exit $rc):"; cat "$W/$name.vg" "$W/$name.out" | head -n 60
+        fails=$((fails + 1))
+    fi
+}
+export OMP_NUM_THREADS=1
+vg import-cat import mesh "$D/source/cat-reference.obj" -o "$W/in.h5" --name cat
+vg import-lion import mesh "$D/target/lion-reference.obj" -o "$W/in.h5" --name lion
+vg import-seq import sequence "$D"/source/cat-0[1-3].obj -o "$W/in.h5" --name poses --mesh /meshes/cat
+vg import-markers import markers "$D/markers.csv" --index-base 0 -o "$W/in.h5" --name m \
+    --source /meshes/cat --target /meshes/lion
+cat > "$W/job.json" <<JOB
+{
+  "dtx_job": 1,
+  "method": "sp04",
+  "source": {"file": "in.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/*"]},
+  "targets": [{"name": "lion", "file": "in.h5", "mesh": "/meshes/lion",
+               "markers": {"file": "in.h5", "path": "/markers/m"}}],
+  "output": {"file": "out.h5", "block_frames": 8}
+}
+JOB
+vg run run "$W/job.json"
+vg resume-finished run --resume "$W/job.json"
+vg validate validate "$W/out.h5"
+vg export export "$W/out.h5" /results/lion/poses --obj-dir "$W/obj"
+vg ! bad-job run "$W/missing.json"
+# A failure inside the run (injected at the transfer) frees everything too.
+DTX_FAULT=transfer@0 vg ! failed-run run "$W/job.json"
+vg validate-after-failure validate "$W/out.h5"
+echo "valgrind: $fails failed"
+test "$fails" -eq 0
