@@ -137,18 +137,25 @@ typedef enum {
 
 typedef struct dtx_sp04_plan dtx_sp04_plan;
 
-/* Frames are solved in groups of this many, each group with one
- * multi-column back-substitution; callers that split a sequence (ranks,
- * blocks) at multiples of it get the same arithmetic for every frame. */
+/* Frames are transferred in groups of this many (the SIMD lanes of one
+ * pass over the operators and one back-substitution with 3 x 8 right-hand
+ * sides).  Every frame gets the same arithmetic whatever its place in a
+ * group, so splitting a sequence anywhere gives the same bits; splits at
+ * multiples of it (ranks, blocks) also leave no partly filled group. */
 #define DTX_SP04_SOLVE_GROUP 8
 
 /* Precompute: builds the target's normal equations sum_pairs G_t^T G_t,
- * removes the anchor/pinned vertices and factors it once (CHOLMOD,
- * supernodal).  pins: npins vertex indices with positions pin_pos
- * (npins x 3); used when anchor == DTX_ANCHOR_PINS (npins >= 1) and also
- * honoured with the other anchors (then the centroid is not adjusted).
- * Fails with DTX_EMESH if the target has more than one connected component
- * (the message points at the multicomponent method). */
+ * removes the anchor/pinned vertices and factors it once (CHOLMOD, kept as
+ * a simplicial L D L^T), and the per-pair operators of the right-hand side
+ * and of the residual.  pairs: npairs x 2 (source triangle, target
+ * triangle), 0 <= npairs <= INT32_MAX.  pins: npins vertex indices with
+ * positions pin_pos (npins x 3); used when anchor == DTX_ANCHOR_PINS
+ * (npins >= 1) and also honoured with the other anchors (then the centroid
+ * is not adjusted).  Fails with DTX_ERANGE for out-of-range pairs or pins,
+ * DTX_EMESH if the target has more than one connected component (the
+ * message points at the multicomponent method), DTX_ESOLVE if the system
+ * cannot be factored, DTX_ENOMEM.  The plan copies what it needs (src, tgt
+ * and pairs may be freed afterwards). */
 dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const int32_t *pairs,
                                 int64_t npairs, dtx_anchor anchor, const int32_t *pins,
                                 const double *pin_pos, int32_t npins, dtx_sp04_plan **plan,
@@ -156,13 +163,17 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
 void dtx_sp04_plan_free(dtx_sp04_plan **plan);
 
 /* Apply: transfers nframes source frames Xs (nframes x nv_s x 3) to
- * target frames Xt (nframes x nv_t x 3).  residual (nframes, may be NULL)
- * gets per frame the RMS over pairs of the Frobenius norm of S_s - T_t in
- * the target triangle's plane (the paper's energy with the optimal fourth
- * vertex).  Frames are solved together as multiple right-hand sides;
- * OpenMP threads split the per-frame work.  Results do not depend on the
- * thread count or on how frames are grouped into calls.  Not thread-safe on
- * one plan (it owns the solve workspace). */
+ * target frames Xt (nframes x nv_t x 3, caller-allocated).  residual
+ * (nframes, may be NULL) gets per frame sqrt(E / npairs), E the minimised
+ * energy: the sum over pairs of ||S_s - T_t||_F^2 in the target triangle's
+ * plane (the paper's energy with the optimal fourth vertex); it is NaN for
+ * a frame with non-finite positions, and no other frame is affected.
+ * Frames go in groups of DTX_SP04_SOLVE_GROUP, OpenMP threads taking whole
+ * groups; per-thread scratch is allocated on the first call (and again when
+ * the thread count grows), never per frame.  Results are bitwise the same
+ * whatever the thread count, the kernel variant and the way frames are
+ * split into calls.  Fails only with DTX_ENOMEM (scratch).  Not thread-safe
+ * on one plan (it owns the scratch). */
 dtx_status dtx_sp04_apply(dtx_sp04_plan *plan, int64_t nframes, const double *Xs, double *Xt,
                           double *residual, dtx_error *err);
 
@@ -172,8 +183,23 @@ int32_t dtx_sp04_plan_nv_tgt(const dtx_sp04_plan *plan);
 
 /* Benchmark hook: seconds per frame of a bare CHOLMOD back-substitution
  * (3 right-hand sides, cholmod_solve2 with reused workspace) on the plan's
- * factor, averaged over nrep solves.  For scripts/bench.sh. */
+ * factor, averaged over nrep solves (the reference dtx_sp04_apply is
+ * measured against; apply does its own back-substitutions).  For
+ * scripts/bench.sh; -1 when out of memory. */
 double dtx_sp04_plan_bare_solve_seconds(dtx_sp04_plan *plan, int nrep);
+
+/* As dtx_sp04_plan_bare_solve_seconds with frames_per_solve frames (3 x
+ * frames_per_solve right-hand sides) per cholmod_solve2 call; returns
+ * seconds per frame, or -1 for frames_per_solve < 1 or out of memory. */
+double dtx_sp04_plan_bare_solve_seconds_group(dtx_sp04_plan *plan, int frames_per_solve,
+                                              int nrep);
+
+/* Kernel variant of dtx_sp04_apply: with on != 0 the AVX2 variant when the
+ * build has it (x86-64, GCC or Clang) and the CPU supports it (the default),
+ * else the baseline one.  Both give bitwise the same results; for tests and
+ * benchmarks.  Returns 1 when the AVX2 variant is now in use.  Not
+ * thread-safe with a concurrent apply on the same plan. */
+int dtx_sp04_plan_use_avx2(dtx_sp04_plan *plan, int on);
 
 /* Seconds the factorisation took (analyze + factorize). */
 double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);

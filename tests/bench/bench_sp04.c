@@ -2,21 +2,51 @@
  * bench_sp04.c: figures for scripts/bench.sh (printed, never asserted).
  *
  *   dtx_bench sp04 DATA_DIR [NFRAMES]
- *       cat -> lion in memory: correspondence, factorisation, transfer time
- *       per frame (batched, current OMP_NUM_THREADS) and a bare CHOLMOD
- *       back-substitution on the same factor, measured in the same run.
- *   dtx_bench make-sequence DATA_DIR OUT.h5 NFRAMES
- *       a long cat sequence (blends of the 9 poses) plus the cat, the lion
- *       and the markers, for end-to-end runs.
+ *       source -> target in memory: correspondence, factorisation, transfer
+ *       time per frame (current OMP_NUM_THREADS) and, on the same factor, a
+ *       bare CHOLMOD back-substitution per frame with 3 right-hand sides per
+ *       call and with a whole group's (3 x DTX_SP04_SOLVE_GROUP) per call.
+ *   dtx_bench make-sequence DATA_DIR OUT.h5 NFRAMES [--gzip]
+ *       a long source sequence (blends of consecutive poses) plus the rest
+ *       meshes and the markers, for end-to-end runs; positions stored
+ *       uncompressed unless --gzip.
+ *
+ * DATA_DIR holds source/<src>-reference.obj with poses source/<src>-01.obj,
+ * -02.obj, ..., target/<tgt>-reference.obj and markers.csv (0-based), as
+ * the bundled sumner-cat-lion and sumner-horse-camel sets do.
  */
 #include "dtx_core.h"
 #include "h5layout.h"
 #include "meshfile.h"
 
+#include <dirent.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <time.h>
+
+/* Frames held in memory by the sp04 benchmark; longer runs repeat them. */
+#define BENCH_BLOCK 512
+
+typedef struct {
+    char dir[1024];
+    char src_name[256], tgt_name[256]; /* "cat", "lion" */
+    dtx_mesh src, tgt;
+    dtx_markers mk;
+    int nposes;
+    double *poses; /* nposes x nv_s x 3 */
+} dataset;
+
+/* CPU seconds of the whole process (all threads): unlike the wall clock,
+ * not inflated when other jobs share the cores. */
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
+        return 0.0;
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
 
 static void die(const dtx_error *e)
 {
@@ -24,131 +54,257 @@ static void die(const dtx_error *e)
     exit(1);
 }
 
-static void load(const char *dir, const char *rel, dtx_mesh *m)
+static void die_msg(const char *what, const char *path)
 {
-    char p[2048];
+    fprintf(stderr, "dtx_bench: %s: %s\n", path, what);
+    exit(1);
+}
+
+static void *xmalloc(size_t n, size_t size)
+{
+    void *p = dtx_alloc(n, size, 0);
+    if (!p) {
+        fprintf(stderr, "dtx_bench: out of memory (%zu x %zu bytes)\n", n, size);
+        exit(1);
+    }
+    return p;
+}
+
+static void load(const char *path, dtx_mesh *m)
+{
     dtx_error e;
-    snprintf(p, sizeof p, "%s/%s", dir, rel);
-    if (dtx_obj_read(p, m, NULL, &e) != DTX_OK)
+    if (dtx_obj_read(path, m, NULL, &e) != DTX_OK)
         die(&e);
 }
 
-/* Frame t of the long sequence: a smooth blend of two consecutive poses. */
-static void blend(const double *poses, int32_t nv, int64_t t, double *out)
+/* The name before "-reference.obj" of the one such file in dir/sub. */
+static void find_reference(const char *dir, const char *sub, char *name, size_t size)
 {
-    double u = (double)(t % 50) / 50.0;
-    int a = (int)((t / 50) % 9), b = (a + 1) % 9;
-    for (size_t i = 0; i < 3 * (size_t)nv; i++)
-        out[i] = (1 - u) * poses[(size_t)a * 3 * nv + i] + u * poses[(size_t)b * 3 * nv + i];
+    static const char suffix[] = "-reference.obj";
+    char path[1200];
+    DIR *d;
+    struct dirent *ent;
+    int found = 0;
+    snprintf(path, sizeof path, "%s/%s", dir, sub);
+    d = opendir(path);
+    if (!d)
+        die_msg("cannot open the directory", path);
+    while ((ent = readdir(d)) != NULL) {
+        size_t n = strlen(ent->d_name), ns = sizeof suffix - 1;
+        if (n > ns && n - ns < size && strcmp(ent->d_name + n - ns, suffix) == 0) {
+            if (found++)
+                die_msg("more than one *-reference.obj", path);
+            memcpy(name, ent->d_name, n - ns);
+            name[n - ns] = '\0';
+        }
+    }
+    closedir(d);
+    if (!found)
+        die_msg("no *-reference.obj", path);
 }
 
-static double *load_poses(const char *dir, int32_t nv)
+/* Loads the rest meshes, the markers and the numbered poses <src>-01.obj,
+ * -02.obj, ... (as many as exist in a row). */
+static void load_dataset(const char *dir, dataset *ds)
 {
-    double *poses = malloc(sizeof(double) * 3 * nv * 9);
-    for (int k = 1; k <= 9; k++) {
-        char rel[64];
+    char path[1600];
+    dtx_error e;
+    memset(ds, 0, sizeof *ds);
+    snprintf(ds->dir, sizeof ds->dir, "%s", dir);
+    find_reference(dir, "source", ds->src_name, sizeof ds->src_name);
+    find_reference(dir, "target", ds->tgt_name, sizeof ds->tgt_name);
+    snprintf(path, sizeof path, "%s/source/%s-reference.obj", dir, ds->src_name);
+    load(path, &ds->src);
+    snprintf(path, sizeof path, "%s/target/%s-reference.obj", dir, ds->tgt_name);
+    load(path, &ds->tgt);
+    snprintf(path, sizeof path, "%s/markers.csv", dir);
+    if (dtx_markers_read_csv(path, 0, &ds->mk, &e) != DTX_OK)
+        die(&e);
+    for (;;) {
+        FILE *f;
+        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, ds->nposes + 1);
+        if (!(f = fopen(path, "r")))
+            break;
+        fclose(f);
+        ds->nposes++;
+    }
+    if (ds->nposes == 0) {
+        snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
+        die_msg("no numbered poses (expected this file and following ones)", path);
+    }
+    ds->poses = xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
+    for (int k = 0; k < ds->nposes; k++) {
         dtx_mesh m;
-        snprintf(rel, sizeof rel, "source/cat-%02d.obj", k);
-        load(dir, rel, &m);
-        memcpy(poses + (size_t)(k - 1) * 3 * nv, m.V, sizeof(double) * 3 * nv);
+        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
+        load(path, &m);
+        if (m.nv != ds->src.nv)
+            die_msg("vertex count differs from the reference", path);
+        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
         dtx_mesh_free(&m);
     }
-    return poses;
+}
+
+static void free_dataset(dataset *ds)
+{
+    dtx_mesh_free(&ds->src);
+    dtx_mesh_free(&ds->tgt);
+    dtx_markers_free(&ds->mk);
+    free(ds->poses);
+}
+
+/* Frame t of the long sequence: a smooth blend of two consecutive poses. */
+static void blend(const dataset *ds, int64_t t, double *out)
+{
+    const size_t n = 3 * (size_t)ds->src.nv;
+    double u = (double)(t % 50) / 50.0;
+    int a = (int)((t / 50) % ds->nposes), b = (a + 1) % ds->nposes;
+    for (size_t i = 0; i < n; i++)
+        out[i] = (1 - u) * ds->poses[(size_t)a * n + i] + u * ds->poses[(size_t)b * n + i];
+}
+
+static int make_sequence(const dataset *ds, const char *out, int64_t n, int gzip)
+{
+    char msrc[300], mtgt[300], mark[600];
+    const int64_t chunk = 16;
+    double *buf = xmalloc((size_t)chunk * 3 * ds->src.nv, sizeof *buf);
+    hid_t f;
+    dtx_h5_seq seq;
+    dtx_error e;
+    snprintf(msrc, sizeof msrc, "/meshes/%s", ds->src_name);
+    snprintf(mtgt, sizeof mtgt, "/meshes/%s", ds->tgt_name);
+    snprintf(mark, sizeof mark, "/markers/%s-%s", ds->src_name, ds->tgt_name);
+    {
+        char rs[300], rt[300];
+        snprintf(rs, sizeof rs, "%s-reference.obj", ds->src_name);
+        snprintf(rt, sizeof rt, "%s-reference.obj", ds->tgt_name);
+        if (dtx_h5_create(out, MPI_COMM_NULL, &f, &e) != DTX_OK ||
+            dtx_h5_write_mesh(f, msrc, &ds->src, rs, &e) != DTX_OK ||
+            dtx_h5_write_mesh(f, mtgt, &ds->tgt, rt, &e) != DTX_OK ||
+            dtx_h5_write_markers(f, mark, &ds->mk, msrc, mtgt, &e) != DTX_OK ||
+            dtx_h5_seq_create(f, "/sequences/long", msrc, n, ds->src.nv, 0, (int)chunk, gzip,
+                              &seq, &e) != DTX_OK)
+            die(&e);
+    }
+    for (int64_t t0 = 0; t0 < n; t0 += chunk) {
+        int64_t c = n - t0 < chunk ? n - t0 : chunk;
+        for (int64_t i = 0; i < c; i++)
+            blend(ds, t0 + i, buf + (size_t)i * 3 * ds->src.nv);
+        if (dtx_h5_seq_write(&seq, t0, c, buf, 0, &e) != DTX_OK)
+            die(&e);
+    }
+    if (dtx_h5_seq_commit(&seq, &e) != DTX_OK)
+        die(&e);
+    dtx_h5_seq_close(&seq);
+    dtx_h5_close(&f, NULL);
+    free(buf);
+    printf("wrote %lld frames (blends of %d poses, %s) to %s\n", (long long)n, ds->nposes,
+           gzip ? "gzip" : "uncompressed", out);
+    printf("  meshes    %s (%d vertices), %s (%d vertices)\n", msrc, (int)ds->src.nv, mtgt,
+           (int)ds->tgt.nv);
+    printf("  markers   %s (%d)\n", mark, (int)ds->mk.n);
+    printf("  sequence  /sequences/long (float32, rest %s)\n", msrc);
+    return 0;
+}
+
+static int bench_sp04(const dataset *ds, int64_t n)
+{
+    const int64_t block = n < BENCH_BLOCK ? n : BENCH_BLOCK;
+    const size_t fs = 3 * (size_t)ds->src.nv, ft = 3 * (size_t)ds->tgt.nv;
+    double *Xs = xmalloc((size_t)block, fs * sizeof *Xs);
+    double *Xt = xmalloc((size_t)block, ft * sizeof *Xt);
+    double *res = xmalloc((size_t)block, sizeof *res);
+    double t0, c0, tc, tf, tt, ct, tb3, tb24;
+    dtx_corr corr;
+    dtx_corr_params prm;
+    dtx_sp04_plan *plan;
+    dtx_error e;
+    int avx2;
+
+    dtx_corr_params_default(&prm);
+    t0 = omp_get_wtime();
+    if (dtx_sp04_correspond(&ds->src, &ds->tgt, &ds->mk, &prm, &corr, &e) != DTX_OK)
+        die(&e);
+    tc = omp_get_wtime() - t0;
+    t0 = omp_get_wtime();
+    if (dtx_sp04_plan_create(&ds->src, &ds->tgt, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
+                             NULL, 0, &plan, &e) != DTX_OK)
+        die(&e);
+    tf = omp_get_wtime() - t0;
+    avx2 = dtx_sp04_plan_use_avx2(plan, 1);
+
+    /* Everything the timed loop touches is written once before it, so that
+     * page faults of the big arrays stay out of the figure. */
+    for (int64_t t = 0; t < block; t++)
+        blend(ds, t, Xs + (size_t)t * fs);
+    memset(Xt, 0, (size_t)block * ft * sizeof *Xt);
+    if (dtx_sp04_apply(plan, block, Xs, Xt, res, &e) != DTX_OK) /* warm-up */
+        die(&e);
+
+    t0 = omp_get_wtime();
+    c0 = cpu_seconds();
+    for (int64_t done = 0; done < n; done += block) {
+        int64_t m = n - done < block ? n - done : block;
+        if (dtx_sp04_apply(plan, m, Xs, Xt, res, &e) != DTX_OK)
+            die(&e);
+    }
+    tt = (omp_get_wtime() - t0) / n;
+    ct = (cpu_seconds() - c0) / n;
+    tb3 = dtx_sp04_plan_bare_solve_seconds_group(plan, 1, 200);
+    tb24 = dtx_sp04_plan_bare_solve_seconds_group(plan, DTX_SP04_SOLVE_GROUP, 50);
+
+    printf("%s -> %s, %d thread(s), %lld frames (%lld in memory), %s kernels\n", ds->src_name,
+           ds->tgt_name, omp_get_max_threads(), (long long)n, (long long)block,
+           avx2 ? "AVX2" : "baseline");
+    printf("  source %d vertices, target %d vertices, %lld pairs\n", (int)ds->src.nv,
+           (int)ds->tgt.nv, (long long)corr.npairs);
+    printf("  correspondence          %8.3f s\n", tc);
+    printf("  plan + factorisation    %8.3f s   (factor alone %.4f s)\n", tf,
+           dtx_sp04_plan_factor_seconds(plan));
+    printf("  transfer per frame      %8.3f ms  (right-hand side, solve, residual, output)\n",
+           tt * 1e3);
+    printf("  transfer CPU per frame  %8.3f ms  (all threads; wall x threads when the cores "
+           "are ours)\n",
+           ct * 1e3);
+    printf("  bare back-substitution  %8.3f ms  per frame, cholmod_solve2, 3 columns per call\n",
+           tb3 * 1e3);
+    printf("  bare back-substitution  %8.3f ms  per frame, cholmod_solve2, %d columns per call\n",
+           tb24 * 1e3, 3 * DTX_SP04_SOLVE_GROUP);
+    printf("  ratio transfer / bare   %8.2f   (3 columns)   %.2f (%d columns)\n", tt / tb3,
+           tt / tb24, 3 * DTX_SP04_SOLVE_GROUP);
+    dtx_sp04_plan_free(&plan);
+    dtx_corr_free(&corr);
+    free(Xs);
+    free(Xt);
+    free(res);
+    return 0;
 }
 
 int main(int argc, char **argv)
 {
-    dtx_mesh cat, lion;
-    dtx_markers mk;
-    dtx_error e;
-    char p[2048];
-    if (argc < 3) {
-        fprintf(stderr, "usage: dtx_bench sp04 DATA_DIR [NFRAMES] | make-sequence DATA_DIR OUT.h5 N\n");
-        return 2;
-    }
-    load(argv[2], "source/cat-reference.obj", &cat);
-    load(argv[2], "target/lion-reference.obj", &lion);
-    snprintf(p, sizeof p, "%s/markers.csv", argv[2]);
-    if (dtx_markers_read_csv(p, 0, &mk, &e) != DTX_OK)
-        die(&e);
-
-    if (strcmp(argv[1], "make-sequence") == 0 && argc >= 5) {
-        int64_t n = atoll(argv[4]), chunk = 16;
-        double *poses = load_poses(argv[2], cat.nv), *buf;
-        hid_t f;
-        dtx_h5_seq seq;
-        if (dtx_h5_create(argv[3], MPI_COMM_NULL, &f, &e) != DTX_OK ||
-            dtx_h5_write_mesh(f, "/meshes/cat", &cat, "cat-reference.obj", &e) != DTX_OK ||
-            dtx_h5_write_mesh(f, "/meshes/lion", &lion, "lion-reference.obj", &e) != DTX_OK ||
-            dtx_h5_write_markers(f, "/markers/cat-lion", &mk, "/meshes/cat", "/meshes/lion",
-                                 &e) != DTX_OK ||
-            dtx_h5_seq_create(f, "/sequences/long", "/meshes/cat", n, cat.nv, 0, 16, 1, &seq,
-                              &e) != DTX_OK)
-            die(&e);
-        buf = malloc(sizeof(double) * 3 * cat.nv * chunk);
-        for (int64_t t0 = 0; t0 < n; t0 += chunk) {
-            int64_t c = n - t0 < chunk ? n - t0 : chunk;
-            for (int64_t i = 0; i < c; i++)
-                blend(poses, cat.nv, t0 + i, buf + (size_t)i * 3 * cat.nv);
-            if (dtx_h5_seq_write(&seq, t0, c, buf, 0, &e) != DTX_OK)
-                die(&e);
-        }
-        if (dtx_h5_seq_commit(&seq, &e) != DTX_OK)
-            die(&e);
-        dtx_h5_seq_close(&seq);
-        dtx_h5_close(&f, NULL);
-        free(buf);
-        free(poses);
-        printf("wrote %lld frames to %s\n", (long long)n, argv[3]);
-    } else if (strcmp(argv[1], "sp04") == 0) {
+    dataset ds;
+    int rc;
+    if (argc >= 3 && strcmp(argv[1], "sp04") == 0) {
         int64_t n = argc > 3 ? atoll(argv[3]) : 512;
-        double *poses = load_poses(argv[2], cat.nv), *Xs, *Xt, *res, t0, tc, tf, tt, tb;
-        dtx_corr corr;
-        dtx_corr_params prm;
-        dtx_sp04_plan *plan;
-        dtx_corr_params_default(&prm);
-        t0 = omp_get_wtime();
-        if (dtx_sp04_correspond(&cat, &lion, &mk, &prm, &corr, &e) != DTX_OK)
-            die(&e);
-        tc = omp_get_wtime() - t0;
-        t0 = omp_get_wtime();
-        if (dtx_sp04_plan_create(&cat, &lion, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
-                                 NULL, 0, &plan, &e) != DTX_OK)
-            die(&e);
-        tf = omp_get_wtime() - t0;
-        Xs = malloc(sizeof(double) * 3 * cat.nv * n);
-        Xt = malloc(sizeof(double) * 3 * lion.nv * n);
-        res = malloc(sizeof(double) * n);
-        for (int64_t t = 0; t < n; t++)
-            blend(poses, cat.nv, t, Xs + (size_t)t * 3 * cat.nv);
-        dtx_sp04_apply(plan, n < 16 ? n : 16, Xs, Xt, res, &e); /* warm-up */
-        t0 = omp_get_wtime();
-        if (dtx_sp04_apply(plan, n, Xs, Xt, res, &e) != DTX_OK)
-            die(&e);
-        tt = (omp_get_wtime() - t0) / n;
-        tb = dtx_sp04_plan_bare_solve_seconds(plan, 200);
-        printf("cat -> lion, %d thread(s), %lld frames in memory\n", omp_get_max_threads(),
-               (long long)n);
-        printf("  correspondence          %8.3f s   (%lld pairs)\n", tc, (long long)corr.npairs);
-        printf("  plan + factorisation    %8.3f s   (factor alone %.4f s)\n", tf,
-               dtx_sp04_plan_factor_seconds(plan));
-        printf("  transfer per frame      %8.3f ms  (gradients, right-hand side, solve, residual)\n",
-               tt * 1e3);
-        printf("  bare back-substitution  %8.3f ms  per frame (cholmod_solve2, 3 columns, 1 thread)\n",
-               tb * 1e3);
-        printf("  ratio transfer / bare   %8.2f\n", tt / tb);
-        dtx_sp04_plan_free(&plan);
-        dtx_corr_free(&corr);
-        free(Xs);
-        free(Xt);
-        free(res);
-        free(poses);
+        if (n < 1) {
+            fprintf(stderr, "dtx_bench: NFRAMES must be at least 1\n");
+            return 2;
+        }
+        load_dataset(argv[2], &ds);
+        rc = bench_sp04(&ds, n);
+    } else if (argc >= 5 && strcmp(argv[1], "make-sequence") == 0) {
+        int64_t n = atoll(argv[4]);
+        int gzip = argc > 5 && strcmp(argv[5], "--gzip") == 0;
+        if (n < 1 || (argc > 5 && !gzip) || argc > 6) {
+            fprintf(stderr, "usage: dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
+            return 2;
+        }
+        load_dataset(argv[2], &ds);
+        rc = make_sequence(&ds, argv[3], n, gzip);
     } else {
-        fprintf(stderr, "dtx_bench: unknown command %s\n", argv[1]);
+        fprintf(stderr, "usage: dtx_bench sp04 DATA_DIR [NFRAMES]\n"
+                        "       dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
         return 2;
     }
-    dtx_markers_free(&mk);
-    dtx_mesh_free(&cat);
-    dtx_mesh_free(&lion);
-    return 0;
+    free_dataset(&ds);
+    return rc;
 }
