@@ -940,7 +940,8 @@ static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *
 }
 
 /* Transfers the frames of result (t, s) not yet done, each rank its share,
- * in blocks; every rank makes the same number of collective writes. */
+ * in blocks; with collective I/O every rank makes the same number of
+ * writes (ranks without frames write nothing). */
 static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *plan,
                                   frame_buffers *fb, dtx_error *err)
 {
@@ -1005,7 +1006,8 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
         }
         if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
-        st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, 1, err);
+        st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res,
+                                 r->job.collective_io, err);
         if (st == DTX_OK && r->job.export_obj_dir)
             st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
         r->tm.read += t1 - t0;

@@ -507,6 +507,8 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
                             : DTX_DTYPE_FLOAT32;
     x = get(out, "block_frames");
     job->block_frames = cJSON_IsNumber(x) ? (int32_t)x->valuedouble : DEFAULT_BLOCK_FRAMES;
+    x = get(out, "io");
+    job->collective_io = cJSON_IsString(x) && strcmp(x->valuestring, "collective") == 0;
 
     /* ---- sp04 parameters ---- */
     /* sp04 defaults come from the core library, the one place they live. */

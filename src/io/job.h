@@ -98,6 +98,7 @@ typedef struct {
     dtx_dtype output_dtype;
     char *export_obj_dir; /* resolved or NULL: also write OBJ frames here */
     int32_t block_frames; /* [64] frames per block (read/solve/write unit) */
+    int collective_io;    /* [0] frames written with collective MPI-IO (else independent) */
 
     dtx_sp04_params sp04;
 } dtx_job;

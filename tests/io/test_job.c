@@ -392,7 +392,7 @@ static void test_unknown_keys(void)
                 "at /targets/0/pins/0: unknown key \"weight\" (allowed: vertex, position)");
     EXPECT_FAIL(job_text(NULL, NULL, "{\"file\":\"o.h5\",\"format\":\"h5\"}", NULL),
                 "at /output: unknown key \"format\" (allowed: file, dtype, export_obj_dir, "
-                "block_frames)");
+                "block_frames, io)");
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"sp04\":{\"w_smoth\":1}"),
                 "at /sp04: unknown key \"w_smoth\"");
 }
