@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # The main job end to end on the bundled cat -> lion data: import, run under
-# mpirun at 1, 2 and 3 ranks and 1 and 2 threads (float64 output), check that
+# mpirun at 1, 2 and 3 ranks (3: collective writes) and 1 and 2 threads
+# (float64 output), check that
 # every run gives the same result to 1e-12 relative, validate, export.
 set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
@@ -33,7 +34,7 @@ JOB
 }
 job np1
 job np2 ', "export_obj_dir": "obj"'
-job np3
+job np3 ', "io": "collective"'
 job np1t2
 OMP_NUM_THREADS=1 mpirun -np 1 "$DTX" run --quiet "$W/np1.json"
 OMP_NUM_THREADS=1 mpirun -np 2 "$DTX" run "$W/np2.json"
