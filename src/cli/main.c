@@ -133,6 +133,11 @@ static int cmd_import_mesh(int argc, char **argv)
     st = dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
         return fail(&err);
+    /* What dtx run and dtx validate would reject is not written. */
+    if ((st = dtx_mesh_validate(&m, pos[0], &err)) != DTX_OK) {
+        dtx_mesh_free(&m);
+        return fail(&err);
+    }
     snprintf(group, sizeof group, "/meshes/%s", name);
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
@@ -369,6 +374,9 @@ static int cmd_import_markers(int argc, char **argv)
             st = dtx_h5_mesh_size(f, tgt, &tnv, &tnf, &err);
         if (st == DTX_OK)
             st = dtx_markers_validate(&mk, snv, tnv, pos[0], &err);
+    } else if (st == DTX_OK) {
+        /* No mesh sizes to check against: still no vertex used twice. */
+        st = dtx_markers_validate(&mk, INT32_MAX, INT32_MAX, pos[0], &err);
     }
     if (st == DTX_OK)
         st = dtx_h5_write_markers(f, group, &mk, src, tgt, &err);

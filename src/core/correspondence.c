@@ -269,9 +269,15 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
     if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid)
         goto nomem;
 
-    /* Unknowns: markers are fixed at their target positions. */
+    /* Unknowns: markers are fixed at their target positions, and vertices
+     * in no triangle (no term reaches them) stay where they are. */
     for (int32_t v = 0; v < nvar; v++)
-        freeidx[v] = 0;
+        freeidx[v] = v < nv ? -1 : 0;
+    for (int64_t i = 0; i < 3 * (int64_t)nf; i++)
+        freeidx[src->F[i]] = 0;
+    for (int32_t v = 0; v < nv; v++)
+        if (freeidx[v] < 0)
+            memcpy(fixed + 3 * (size_t)v, S0 + 3 * (size_t)v, 3 * sizeof(double));
     for (int32_t m = 0; m < mk->n; m++) {
         freeidx[mk->src[m]] = -1;
         memcpy(fixed + 3 * (size_t)mk->src[m], Tn + 3 * (size_t)mk->tgt[m], 3 * sizeof(double));

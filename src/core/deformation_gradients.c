@@ -73,6 +73,23 @@ static void regularised_inverse(const double *c0, const double *c1, const double
                 Ainv[3 * i] * c0[k] + Ainv[3 * i + 1] * c1[k] + Ainv[3 * i + 2] * c2[k];
 }
 
+/* A triangle is thin when its height is below this fraction of its longest
+ * edge (|e1 x e2| < DTX_THIN_RATIO * longest^2).  Its exact inverse would
+ * have entries of order 1 / height, so a deformation that changes the
+ * height a little gives a huge gradient (and, on the target, a stiffness
+ * matrix too ill-conditioned to factor): such triangles get the
+ * regularised inverse, like zero-area ones.  Real meshes (the cat and lion
+ * of the bundled data: 3.6e-3 at worst) are far above it. */
+#define DTX_THIN_RATIO DTX_MESH_THIN_RATIO
+
+/* Squared length of the longest edge of the triangle with edges e1, e2. */
+static double longest_edge2(const double *e1, const double *e2)
+{
+    double d[3] = {e2[0] - e1[0], e2[1] - e1[1], e2[2] - e1[2]};
+    double a = dot3(e1, e1), b = dot3(e2, e2), c = dot3(d, d);
+    return a > b ? (a > c ? a : c) : (b > c ? b : c);
+}
+
 /* The scaled normal n / sqrt(|n|) of Sumner's fourth vertex (0 for |n| = 0). */
 static void fourth_edge(const double *e1, const double *e2, double *e3)
 {
@@ -102,14 +119,15 @@ int32_t dtx_frame_inverses(const double *V, const int32_t *F, int32_t nf, double
         cross3(e1, e2, n);
         area = 0.5 * sqrt(dot3(n, n));
         fourth_edge(e1, e2, e3);
-        if (area > eps_area && inverse_of_columns(e1, e2, e3, inv) != 0.0)
+        scale2 = longest_edge2(e1, e2);
+        if (area > eps_area && 2.0 * area > DTX_THIN_RATIO * scale2 &&
+            inverse_of_columns(e1, e2, e3, inv) != 0.0)
             continue;
         /* Zero-area or needle triangle: a regularised pseudo-inverse keeps
          * the gradient finite and meaningful along the edges that exist. */
         degenerate++;
-        scale2 = dot3(e1, e1) > dot3(e2, e2) ? dot3(e1, e1) : dot3(e2, e2);
         if (scale2 > 0.0)
-            regularised_inverse(e1, e2, e3, 1e-6 * scale2, inv);
+            regularised_inverse(e1, e2, e3, DTX_THIN_RATIO * scale2, inv);
         else
             memset(inv, 0, 9 * sizeof *inv);
     }
@@ -140,20 +158,30 @@ int32_t dtx_gradient_operator(const double *V, const int32_t *F, int32_t nf, dou
     int32_t degenerate = 0;
     for (int32_t f = 0; f < nf; f++) {
         const int32_t *t = F + 3 * f;
-        double e1[3], e2[3], n[3], a, b, c, det;
+        double e1[3], e2[3], n[3], a, b, c, det, scale2;
         double *g = G + 9 * f;
         sub3(V + 3 * t[1], V + 3 * t[0], e1);
         sub3(V + 3 * t[2], V + 3 * t[0], e2);
         cross3(e1, e2, n);
         det = dot3(n, n); /* = a c - b^2, the Gram determinant */
-        if (0.5 * sqrt(det) <= eps_area || det == 0.0) {
-            memset(g, 0, 9 * sizeof *g);
-            degenerate++;
-            continue;
-        }
+        scale2 = longest_edge2(e1, e2);
         a = dot3(e1, e1);
         b = dot3(e1, e2);
         c = dot3(e2, e2);
+        if (0.5 * sqrt(det) <= eps_area || sqrt(det) <= DTX_THIN_RATIO * scale2) {
+            /* Zero-area or needle triangle: the Tikhonov-regularised
+             * pseudo-inverse (E^T E + delta I)^-1 E^T keeps the constraint
+             * along the edges that exist and a bounded one across. */
+            double delta = DTX_THIN_RATIO * scale2;
+            degenerate++;
+            a += delta;
+            c += delta;
+            det = a * c - b * b;
+            if (scale2 == 0.0 || !(det > 0.0)) {
+                memset(g, 0, 9 * sizeof *g);
+                continue;
+            }
+        }
         for (int k = 0; k < 3; k++) {
             double r1 = (c * e1[k] - b * e2[k]) / det; /* row 1 of pinv(E) */
             double r2 = (a * e2[k] - b * e1[k]) / det; /* row 2 of pinv(E) */

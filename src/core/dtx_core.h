@@ -24,9 +24,11 @@
 /* Per-triangle inverse of the rest frame V = [v2-v1, v3-v1, v4-v1] with the
  * fourth vertex v4 = v1 + n / sqrt(|n|), n = (v2-v1) x (v3-v1) (Sumner &
  * Popovic 2004, eq. 1).  Vinv: nf x 9.  A triangle whose area is below
- * eps_area (absolute, >= 0) is regularised: its normal is replaced by the
- * mean normal of a tiny equilateral lift so the inverse stays finite; the
- * number of such triangles is returned (0 for a clean mesh). */
+ * eps_area (absolute, >= 0) or whose height is below 1e-4 of its longest
+ * edge L (a needle; DTX_MESH_THIN_RATIO) gets the Tikhonov-regularised
+ * inverse (M^T M + 1e-4 L^2 I)^-1 M^T instead, so that it stays bounded
+ * whatever the thinness; the number of such triangles is returned (0 for a
+ * clean mesh). */
 int32_t dtx_frame_inverses(const double *V, const int32_t *F, int32_t nf, double eps_area,
                            double *Vinv);
 
@@ -40,8 +42,10 @@ void dtx_deformation_gradients(const double *Vinv, const int32_t *F, int32_t nf,
 /* Vertex-only gradient operator (Botsch et al. 2006): for each triangle the
  * three row vectors g1, g2, g3 (G: nf x 9, g_j at G[9f + 3j]) with
  * Xtilde-edge-matrix * pinv(E) = sum_j x_j g_j^T, pinv(E) = (E^T E)^-1 E^T,
- * E = [v2-v1, v3-v1].  Degenerate triangles (area < eps_area) get g = 0 and
- * are counted in the return value. */
+ * E = [v2-v1, v3-v1].  Degenerate triangles (area < eps_area, or height
+ * below 1e-4 of the longest edge L) get the regularised (E^T E + 1e-4 L^2
+ * I)^-1 E^T instead (g = 0 when the triangle is a point) and are counted in
+ * the return value. */
 int32_t dtx_gradient_operator(const double *V, const int32_t *F, int32_t nf, double eps_area,
                               double *G);
 

@@ -43,6 +43,60 @@ int32_t dtx_mesh_components(const dtx_mesh *m, int32_t *comp);
 /* Number of vertices referenced by no face. */
 int32_t dtx_mesh_count_unreferenced(const dtx_mesh *m);
 
+/* A triangle is a needle (or degenerate) when its height is below this
+ * fraction of its longest edge: |e1 x e2| <= DTX_MESH_THIN_RATIO * longest^2.
+ * Zero-area triangles are included.  The bundled cat and lion meshes are at
+ * 3.6e-3 at worst. */
+#define DTX_MESH_THIN_RATIO 1e-4
+
+/* What dtx_mesh_inspect finds: properties that a mesh can have and still
+ * pass dtx_mesh_validate, each with a count and the first instance (lowest
+ * index; -1 entries when the count is 0).  All indices are 0-based. */
+typedef struct {
+    /* Connected components (over shared vertices) of the vertices that are
+     * in a face.  With components > 1, other_component is the lowest vertex
+     * not connected to vertex F[0]. */
+    int32_t components;
+    int32_t other_component;
+    /* Vertices in no face. */
+    int32_t unreferenced;
+    int32_t first_unreferenced;
+    /* Faces with |e1 x e2| <= DTX_MESH_THIN_RATIO * longest edge^2 (zero
+     * area and needles); thinnest is the smallest ratio |e1 x e2| /
+     * longest^2 over all faces (0 for a zero-area face). */
+    int32_t degenerate;
+    int32_t first_degenerate;
+    double thinnest;
+    /* Vertices in a face at exactly the position of a lower-numbered vertex
+     * in a face: dup_vertex = {lower, higher} of the first such pair by the
+     * higher index. */
+    int32_t duplicate_positions;
+    int32_t dup_vertex[2];
+    /* Edges shared by three or more faces (non-manifold), the first edge
+     * by (lower, higher) vertex, and how many faces share it. */
+    int32_t nonmanifold_edges;
+    int32_t nonmanifold_edge[2];
+    int32_t nonmanifold_faces;
+    /* Faces on the same three vertices as a lower-numbered face:
+     * dup_face = {lower, higher} of the first such pair by the higher. */
+    int32_t duplicate_faces;
+    int32_t dup_face[2];
+} dtx_mesh_report;
+
+/* Fills *rep for m, which must pass dtx_mesh_validate (indices in range).
+ * O(nf log nf) time, O(nv + nf) temporary memory.  Returns DTX_ENOMEM (and
+ * *rep zeroed) when the temporary arrays cannot be allocated.  Thread-safe
+ * (no shared state). */
+dtx_status dtx_mesh_inspect(const dtx_mesh *m, dtx_mesh_report *rep, dtx_error *err);
+
+/* Writes into buf (n bytes, always NUL-terminated when n > 0) one sentence
+ * per notable finding of rep that a method still accepts, separated by
+ * "; ": vertices in no face, degenerate faces, duplicate positions,
+ * non-manifold edges, duplicate faces (components are not included: a
+ * method decides about them).  Returns the number of findings (also those
+ * cut off when buf is too small; 0 leaves buf ""). */
+int dtx_mesh_report_notes(const dtx_mesh_report *rep, char *buf, size_t n);
+
 /* Length of the bounding-box diagonal of X (n x 3). */
 double dtx_bbox_diagonal(const double *X, int32_t n);
 

@@ -173,6 +173,9 @@ struct dtx_sp04_plan {
     int32_t nremoved;
     int32_t *removed;   /* nremoved: removed vertices that are in a face (pins, anchor) */
     int32_t *fixedrows; /* nv_t - nfree: the vertex of each bg row past the free ones */
+    int32_t nunref;
+    int32_t *unrefrows; /* nunref: bg rows of the vertices in no face */
+    double rest_centroid_ref[3]; /* rest centroid of the vertices in faces */
     double *fixedval;   /* nv_t x 3: values of removed vertices (pins, rest for the others) */
     double *pin_rhs;    /* nfree x 3, by bg row: - L_fp x_p for pinned p */
     double pin_energy;  /* x_p^T L_pp x_p over the three coordinates */
@@ -249,6 +252,7 @@ void dtx_sp04_plan_free(dtx_sp04_plan **pp)
     free(p->freeidx);
     free(p->removed);
     free(p->fixedrows);
+    free(p->unrefrows);
     free(p->fixedval);
     free(p->pin_rhs);
     free(p->lrowptr);
@@ -768,6 +772,23 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     for (int32_t v = 0, r = 0; v < nv; v++)
         if (p->freeidx[v] < 0 && used[v])
             p->removed[r++] = v;
+    /* Vertices in no face keep their rest offset from the centroid of the
+     * vertices in faces (write_frames). */
+    p->nunref = 0;
+    for (int32_t v = 0; v < nv; v++)
+        p->nunref += !used[v];
+    if (p->nunref > 0) {
+        int32_t nused = nv - p->nunref;
+        p->unrefrows = dtx_alloc((size_t)p->nunref, sizeof *p->unrefrows, 0);
+        if (!p->unrefrows)
+            goto nomem;
+        for (int c = 0; c < 3; c++)
+            p->rest_centroid_ref[c] = 0.0;
+        for (int32_t v = 0; v < nv; v++)
+            if (used[v])
+                for (int c = 0; c < 3; c++)
+                    p->rest_centroid_ref[c] += tgt->V[3 * (size_t)v + c] / nused;
+    }
 
     st = assemble_normal_matrix(p, tgt, G, tmult, &Lfull, &K, &p->cc, err);
     if (st != DTX_OK)
@@ -792,6 +813,9 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     st = number_bg_rows(p, err);
     if (st != DTX_OK)
         goto fail;
+    for (int32_t v = 0, k = 0; v < nv; v++)
+        if (!used[v])
+            p->unrefrows[k++] = p->trow[v];
     cholmod_free_sparse(&K, &p->cc);
     cholmod_free_sparse(&Lfull, &p->cc);
     free(comp);
@@ -1124,6 +1148,29 @@ KERNEL void write_frames(const dtx_sp04_plan *p, int64_t nfr, double *restrict b
         for (int c = 0; c < 3; c++)
             for (int f = 0; f < LANES; f++)
                 bg[(size_t)r * VSTRIDE + c * LANES + f] = x[c];
+    }
+    /* Vertices in no face: their rest offset from the centroid of the
+     * vertices in faces, added to that centroid in this frame. */
+    if (p->nunref > 0) {
+        double cref[3][LANES];
+        for (int c = 0; c < 3; c++)
+            for (int f = 0; f < LANES; f++)
+                cref[c][f] = 0.0;
+        for (int32_t r = 0; r < nv; r++)
+            for (int c = 0; c < 3; c++)
+                for (int f = 0; f < LANES; f++)
+                    cref[c][f] += bg[(size_t)r * VSTRIDE + c * LANES + f];
+        for (int32_t k = 0; k < p->nunref; k++)
+            for (int c = 0; c < 3; c++)
+                for (int f = 0; f < LANES; f++)
+                    cref[c][f] -= bg[(size_t)p->unrefrows[k] * VSTRIDE + c * LANES + f];
+        for (int c = 0; c < 3; c++)
+            for (int f = 0; f < LANES; f++)
+                cref[c][f] = cref[c][f] / (nv - p->nunref) - p->rest_centroid_ref[c];
+        for (int32_t k = 0; k < p->nunref; k++)
+            for (int c = 0; c < 3; c++)
+                for (int f = 0; f < LANES; f++)
+                    bg[(size_t)p->unrefrows[k] * VSTRIDE + c * LANES + f] += cref[c][f];
     }
 
     /* The translation d = want - centroid, the centroid summed in row order. */

@@ -479,21 +479,65 @@ static dtx_status read_sequences(run_state *r, dtx_error *err)
     return st;
 }
 
+/* Mesh checks beyond dtx_mesh_validate (which the reader ran): what sp04
+ * cannot use is an error, what it accepts but a user may not expect is a
+ * warning from rank 0.  Every rank checks, so every rank fails alike.  A
+ * target must be one connected piece: sp04 fixes a single translation, so a
+ * second piece would float (a singular system), and saying so here is
+ * cheaper than failing after the correspondence. */
+static dtx_status check_mesh(run_state *r, const char *file, const char *path,
+                             const dtx_mesh *m, int is_target, dtx_error *err)
+{
+    dtx_mesh_report rep;
+    char notes[1024], seams[200] = "";
+    dtx_status st = dtx_mesh_inspect(m, &rep, err);
+    if (st != DTX_OK)
+        return st;
+    if (rep.duplicate_positions > 0)
+        snprintf(seams, sizeof seams,
+                 "; %d of its vertices sit at the position of another vertex (vertices %d and "
+                 "%d first): split along seams? weld them",
+                 (int)rep.duplicate_positions, (int)rep.dup_vertex[0], (int)rep.dup_vertex[1]);
+    if (is_target && rep.components > 1)
+        return dtx_seterr(err, DTX_EMESH,
+                          "%s:%s: the target mesh has %d connected components (vertex %d is not "
+                          "connected to vertex %d) and method sp04 needs one (separate pieces "
+                          "need method \"multicomponent\", not in this build yet, or one "
+                          "target per piece)%s",
+                          file, path, (int)rep.components, (int)rep.other_component,
+                          (int)m->F[0], seams);
+    if (dtx_mesh_report_notes(&rep, notes, sizeof notes) > 0)
+        say(r, "dtx: warning: %s mesh %s:%s: %s; accepted", is_target ? "target" : "source",
+            file, path, notes);
+    return DTX_OK;
+}
+
 static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
-        char what[600];
+        char what[4400];
         tc->tj = &r->job.targets[t];
         snprintf(tc->mesh_path, sizeof tc->mesh_path, "/meshes/%s", tc->tj->name);
         snprintf(tc->corr_path, sizeof tc->corr_path, "/correspondences/%s", tc->tj->name);
-        snprintf(what, sizeof what, "markers of target \"%s\"", tc->tj->name);
+        /* Messages about the markers name where they came from. */
+        if (tc->tj->markers.csv)
+            snprintf(what, sizeof what, "%s (markers of target \"%s\")", tc->tj->markers.csv,
+                     tc->tj->name);
+        else
+            snprintf(what, sizeof what, "%s:%s (markers of target \"%s\")",
+                     tc->tj->markers.file ? tc->tj->markers.file : "?",
+                     tc->tj->markers.path ? tc->tj->markers.path : "?", tc->tj->name);
         st = read_mesh_from(tc->tj->file, tc->tj->mesh, &tc->mesh, err);
+        if (st == DTX_OK)
+            st = check_mesh(r, tc->tj->file, tc->tj->mesh, &tc->mesh, 1, err);
         if (st == DTX_OK)
             st = read_markers(tc->tj, &tc->mk, err);
         if (st == DTX_OK)
             st = dtx_markers_validate(&tc->mk, r->src.nv, tc->mesh.nv, what, err);
+        if (st == DTX_OK)
+            st = dtx_markers_check_referenced(&tc->mk, &r->src, what, err);
         if (st == DTX_OK)
             corr_key(&r->src, &tc->mesh, &tc->mk, params, tc->key);
     }
@@ -540,6 +584,8 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
         st = dtx_h5_open(r->job.source_file, MPI_COMM_NULL, 0, &r->src_file, err);
     if (st == DTX_OK)
         st = dtx_h5_read_mesh(r->src_file, r->job.source_mesh, &r->src, err);
+    if (st == DTX_OK)
+        st = check_mesh(r, r->job.source_file, r->job.source_mesh, &r->src, 0, err);
     if (st == DTX_OK)
         st = read_targets(r, params, err);
     if (st == DTX_OK)
@@ -764,7 +810,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         dtx_h5_corr_meta meta;
         snprintf(tgtdesc, sizeof tgtdesc, "%s:%s", tj->file, tj->mesh);
         if (tj->markers.csv)
-            snprintf(mkdesc, sizeof mkdesc, "%s (index base %d)", tj->markers.csv,
+            /* Not starting with '/': the validator follows in-file paths. */
+            snprintf(mkdesc, sizeof mkdesc, "CSV file %s (index base %d)", tj->markers.csv,
                      tj->markers.index_base);
         else
             snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
@@ -939,6 +986,25 @@ static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *
     return st;
 }
 
+/* Source frames may come from files other programs wrote: when a frame's
+ * transfer is not finite, this names the non-finite source coordinate
+ * behind it (frames f0 .. f0 + n at Xs).  Only called on failure, so the
+ * frame loop pays nothing for it. */
+static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int64_t f0,
+                                      int64_t n, const double *Xs, dtx_error *err)
+{
+    const size_t per = 3 * (size_t)r->src.nv;
+    for (int64_t i = 0; i < n; i++)
+        for (size_t k = 0; k < per; k++)
+            if (!isfinite(Xs[(size_t)i * per + k]))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "%s: %s/positions: frame %lld (0-based), vertex %d has a "
+                                  "non-finite coordinate",
+                                  r->job.source_file, sc->path, (long long)(f0 + i),
+                                  (int)(k / 3));
+    return DTX_OK;
+}
+
 /* Transfers the frames of result (t, s) not yet done, each rank its share,
  * in blocks; with collective I/O every rank makes the same number of
  * writes (ranks without frames write nothing). */
@@ -995,11 +1061,15 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
         t2 = wtime();
         for (int64_t i = 0; st == DTX_OK && i < n; i++) {
             if (!isfinite(fb->res[i])) {
-                st = dtx_seterr(err, DTX_ENONFINITE,
-                                "%s:%s frame %lld: the transfer onto \"%s\" produced non-finite "
-                                "values",
-                                r->job.source_file, sc->path, (long long)(f0 + i),
-                                tc->tj->name);
+                /* Name the source coordinate when one is to blame. */
+                st = check_frames_finite(r, sc, f0 + i, 1,
+                                         fb->Xs + (size_t)i * 3 * (size_t)r->src.nv, err);
+                if (st == DTX_OK)
+                    st = dtx_seterr(err, DTX_ENONFINITE,
+                                    "%s:%s frame %lld: the transfer onto \"%s\" produced "
+                                    "non-finite values",
+                                    r->job.source_file, sc->path, (long long)(f0 + i),
+                                    tc->tj->name);
                 break;
             }
             stats_add(&rc->st, fb->res[i]);
