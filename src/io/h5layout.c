@@ -2317,45 +2317,63 @@ dtx_status dtx_h5_result_read_done(const dtx_h5_result *res, uint8_t *done, dtx_
     return DTX_OK;
 }
 
-dtx_status dtx_h5_result_finish(dtx_h5_result *res, int replace, dtx_error *err)
+dtx_status dtx_h5_results_finish(dtx_h5_result *const *res, int n, int replace,
+                                 dtx_error *err)
 {
     uint8_t *done = NULL;
-    dtx_status st;
+    dtx_status st = DTX_OK;
     MPI_Comm comm = MPI_COMM_NULL;
-    if ((st = dtx_h5_flush(res->file, err)) != DTX_OK)
+    hid_t file;
+    if (n <= 0)
+        return DTX_OK;
+    file = res[0]->file;
+    /* One flush for all (with MPI-IO it is an fsync): afterwards the
+     * frame_done writes of every rank are in the file, and the barrier makes
+     * sure every rank has finished flushing before any reads them. */
+    if ((st = dtx_h5_flush(file, err)) != DTX_OK)
         return st;
-    /* Other ranks' frame_done writes are on disk after the flush; the
-     * barrier makes sure every rank has finished flushing before reading. */
-    if (res->parallel && file_comm(res->file, &comm) == 1) {
+    if (res[0]->parallel && file_comm(file, &comm) == 1) {
         MPI_Barrier(comm);
         MPI_Comm_free(&comm);
     }
-    done = dtx_alloc((size_t)res->nframes, 1, 0);
-    if (!done)
-        return ferr(err, DTX_ENOMEM, res->file, res->path, "out of memory");
-    if ((st = dtx_h5_result_read_done(res, done, err)) != DTX_OK)
-        goto done;
-    for (int64_t i = 0; i < res->nframes; i++)
-        if (done[i] != 1) {
-            st = ferr(err, DTX_EINVAL, res->file, res->path,
-                      "cannot mark the result complete: frame %lld (0-based) was not written",
-                      (long long)i);
-            goto done;
+    for (int k = 0; k < n && st == DTX_OK; k++) {
+        dtx_h5_result *r = res[k];
+        free(done);
+        done = dtx_alloc((size_t)r->nframes, 1, 0);
+        if (!done) {
+            st = ferr(err, DTX_ENOMEM, r->file, r->path, "out of memory");
+            break;
         }
-    if ((st = dtx_h5_write_attr_int(res->group, ".", "complete", 1, err)) != DTX_OK ||
-        (st = dtx_h5_flush(res->file, err)) != DTX_OK)
-        goto done;
-    if (!res->committed) {
-        if ((st = dtx_h5_commit_group(res->file, res->path, res->final_path, replace, err)) !=
-            DTX_OK)
-            goto done;
-        snprintf(res->path, sizeof res->path, "%s", res->final_path);
-        res->committed = 1;
-        st = dtx_h5_flush(res->file, err);
+        if ((st = dtx_h5_result_read_done(r, done, err)) != DTX_OK)
+            break;
+        for (int64_t i = 0; i < r->nframes; i++)
+            if (done[i] != 1) {
+                st = ferr(err, DTX_EINVAL, r->file, r->path,
+                          "cannot mark the result complete: frame %lld (0-based) was not written",
+                          (long long)i);
+                break;
+            }
     }
-done:
     free(done);
+    /* Only when every result is whole: mark them and move them into place. */
+    for (int k = 0; k < n && st == DTX_OK; k++)
+        st = dtx_h5_write_attr_int(res[k]->group, ".", "complete", 1, err);
+    for (int k = 0; k < n && st == DTX_OK; k++) {
+        dtx_h5_result *r = res[k];
+        if (r->committed)
+            continue;
+        if ((st = dtx_h5_commit_group(r->file, r->path, r->final_path, replace, err)) != DTX_OK)
+            break;
+        snprintf(r->path, sizeof r->path, "%s", r->final_path);
+        r->committed = 1;
+    }
     return st;
+}
+
+dtx_status dtx_h5_result_finish(dtx_h5_result *res, int replace, dtx_error *err)
+{
+    dtx_status st = dtx_h5_results_finish(&res, 1, replace, err);
+    return st == DTX_OK ? dtx_h5_flush(res->file, err) : st;
 }
 
 void dtx_h5_result_close(dtx_h5_result *res)

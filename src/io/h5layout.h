@@ -408,6 +408,14 @@ dtx_status dtx_h5_result_read_done(const dtx_h5_result *res, uint8_t *done, dtx_
  * when replace != 0) and flushes again.  Collective in parallel. */
 dtx_status dtx_h5_result_finish(dtx_h5_result *res, int replace, dtx_error *err);
 
+/* As dtx_h5_result_finish for n results of one file at once, with one
+ * flush before the checks and none after (closing the file, or a flush,
+ * makes the marks durable): nothing is marked or moved unless every result
+ * has all its frames.  Collective in parallel (same results, same order on
+ * every rank). */
+dtx_status dtx_h5_results_finish(dtx_h5_result *const *res, int n, int replace,
+                                 dtx_error *err);
+
 /* Closes the handles and frees the buffers.  Accepts a zeroed or already
  * closed struct. */
 void dtx_h5_result_close(dtx_h5_result *res);
