@@ -871,6 +871,32 @@ static void test_results(void)
     dtx_h5_result_close(&r);
     CHECK_EQ_INT(dtx_h5_path_exists(f, "/results/.dtx-tmp-lion"), 0);
 
+    /* Several at once: nothing is marked or moved while one is incomplete. */
+    {
+        dtx_h5_result a, b;
+        dtx_h5_result *both[2] = {&a, &b};
+        CHECK_OK(dtx_h5_result_create(f, "/results/many/a", &prov, 3, NV, 0, 4, 0, &a, &e), &e);
+        CHECK_OK(dtx_h5_result_create(f, "/results/many/b", &prov, 3, NV, 1, 4, 0, &b, &e), &e);
+        CHECK_OK(dtx_h5_result_write(&a, 0, 3, X, res, 0, &e), &e);
+        CHECK_OK(dtx_h5_result_write(&b, 0, 2, X, res, 0, &e), &e);
+        CHECK_EQ_INT(dtx_h5_results_finish(both, 2, 0, &e), DTX_EINVAL);
+        CHECK(contains(e.msg, "/results/many/.dtx-tmp-b: cannot mark the result complete: "
+                              "frame 2 (0-based) was not written"));
+        CHECK_EQ_INT(dtx_h5_path_exists(f, "/results/many/a"), 0);
+        CHECK_OK(dtx_h5_read_attr_int(a.group, ".", "complete", &v, &e), &e);
+        CHECK_EQ_INT(v, 0);
+        CHECK_OK(dtx_h5_result_write(&b, 2, 1, X, res, 0, &e), &e);
+        CHECK_OK(dtx_h5_results_finish(both, 2, 0, &e), &e);
+        CHECK_EQ_INT(a.committed + b.committed, 2);
+        dtx_h5_result_close(&a);
+        dtx_h5_result_close(&b);
+        CHECK_OK(dtx_h5_read_attr_int(f, "/results/many/a", "complete", &v, &e), &e);
+        CHECK_EQ_INT(v, 1);
+        CHECK_OK(dtx_h5_read_attr_int(f, "/results/many/b", "complete", &v, &e), &e);
+        CHECK_EQ_INT(v, 1);
+        CHECK_OK(dtx_h5_results_finish(both, 0, 0, &e), &e); /* none: a no-op */
+    }
+
     /* Read back. */
     CHECK_OK(dtx_h5_result_open(f, "/results/lion", 0, &r, &e), &e);
     CHECK_EQ_INT(r.is_f64, 0);
