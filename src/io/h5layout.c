@@ -310,7 +310,6 @@ dtx_status dtx_h5_preallocate(hid_t file, dtx_error *err)
     char name[4096];
     struct stat sb;
     int fd;
-    (void)err;
     /* After a flush the file's size is HDF5's end of allocated space (it
      * extends the file to it), early-allocated datasets included. */
     dtx_h5_filename(file, name, sizeof name);
@@ -321,7 +320,13 @@ dtx_status dtx_h5_preallocate(hid_t file, dtx_error *err)
         return DTX_OK; /* only an optimisation */
     /* KEEP_SIZE: blocks are reserved, the size HDF5 sees is unchanged.  A
      * file system without fallocate says so (no slow emulation). */
-    (void)fallocate(fd, FALLOC_FL_KEEP_SIZE, 0, sb.st_size);
+    if (fallocate(fd, FALLOC_FL_KEEP_SIZE, 0, sb.st_size) != 0 &&
+        (errno == ENOSPC || errno == EDQUOT || errno == EFBIG)) {
+        int e = errno;
+        close(fd);
+        return dtx_seterr(err, DTX_EIO, "%s: no room for the output (%.3g GB): %s", name,
+                          (double)sb.st_size / 1e9, strerror(e));
+    }
     close(fd);
     return DTX_OK;
 }

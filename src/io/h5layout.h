@@ -124,9 +124,10 @@ dtx_status dtx_h5_flush(hid_t file, dtx_error *err);
  * it after a flush: fallocate with KEEP_SIZE of the file's size, on its
  * path), so that writing the frames
  * later only fills blocks: on ext4 that made writing a new 1.2 GB file about
- * 7x faster here.  Best effort: any failure (a file system without
- * fallocate, say) is ignored and DTX_OK returned.  Not collective: call
- * it on one rank. */
+ * 7x faster here.  Best effort, except that a full disk or quota
+ * (ENOSPC, EDQUOT, EFBIG) is DTX_EIO at once, before any frame is
+ * computed; other failures (a file system without fallocate, say) are
+ * ignored.  Not collective: call it on one rank. */
 dtx_status dtx_h5_preallocate(hid_t file, dtx_error *err);
 
 /* 1 when the file (or the file of object id) was opened with the MPI-IO
