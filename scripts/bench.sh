@@ -79,14 +79,26 @@ end_to_end() {
     f1=$(summary "$work/$name-1x1.summary.json" "d['frames_per_second']")
     f2=$(summary "$work/$name-2x1.summary.json" "d['frames_per_second']")
     f3=$(summary "$work/$name-1x2.summary.json" "d['frames_per_second']")
-    "$py" - "$f1" "$f2" "$f3" "$bare" <<'PY'
+    "$py" - "$f1" "$f2" "$f3" "$bare" "$(machine_speedup)" <<'PY'
 import sys
-f1, f2, f3, bare = map(float, sys.argv[1:])
+f1, f2, f3, bare, m = map(float, sys.argv[1:])
 print(f"  parallel efficiency 1 -> 2 cores: {100*f2/(2*f1):.0f}% (2 ranks), {100*f3/(2*f1):.0f}% (2 threads)")
+print(f"  the same against what the 2 cores delivered to a pure arithmetic loop right after "
+      f"({m:.2f}x): {100*f2/(m*f1):.0f}% (2 ranks), {100*f3/(m*f1):.0f}% (2 threads)")
 print(f"  end-to-end time per frame / bare back-substitution (1 core): {1e3/f1/bare:.2f}")
 PY
 }
 
+# machine_speedup: wall time of a pure arithmetic loop at 1 thread over the
+# same work at 2 threads (2.00 on two free cores; a VM or other load gives less).
+machine_speedup() {
+    local a b
+    a=$(OMP_NUM_THREADS=1 build/dtx_bench spin | sed -n 's/.*thread(s) \([0-9.]*\) s.*/\1/p')
+    b=$(OMP_NUM_THREADS=2 build/dtx_bench spin | sed -n 's/.*thread(s) \([0-9.]*\) s.*/\1/p')
+    "$py" -c "import sys; print(f'{float(sys.argv[1])/float(sys.argv[2]):.2f}')" "$a" "$b"
+}
+
+echo "== the machine: a pure arithmetic loop runs $(machine_speedup)x faster on 2 threads than on 1"
 echo "== in memory, cat -> lion"
 for t in 1 2; do OMP_NUM_THREADS=$t build/dtx_bench sp04 build/data/sumner-cat-lion 1024 | tee "$work/mem-cat-$t.txt"; done
 bare_cat=$(bare_ms < "$work/mem-cat-1.txt")

@@ -7,6 +7,10 @@
  *       bare CHOLMOD back-substitution per frame with 3 right-hand sides per
  *       call and with a whole group's (3 x DTX_SP04_SOLVE_GROUP) per call.
  *   dtx_bench make-sequence DATA_DIR OUT.h5 NFRAMES [--gzip]
+ *   dtx_bench spin
+ *       a fixed amount of pure arithmetic over OMP_NUM_THREADS threads: at 1
+ *       and 2 threads, what the machine's cores deliver (the ceiling of any
+ *       parallel efficiency measured in the same run)
  *       a long source sequence (blends of consecutive poses) plus the rest
  *       meshes and the markers, for end-to-end runs; positions stored
  *       uncompressed unless --gzip.
@@ -279,10 +283,33 @@ static int bench_sp04(const dataset *ds, int64_t n)
     return 0;
 }
 
+/* What the cores deliver: a fixed amount of pure arithmetic (no memory
+ * traffic) split over the OpenMP threads; seconds of wall time.  Run at 1
+ * and 2 threads, the ratio is the machine's own speed-up, the ceiling for
+ * any program (on a VM it can be well below 2). */
+static int spin(void)
+{
+    const long total = 800000000L;
+    double t0 = omp_get_wtime(), sink = 0;
+#pragma omp parallel reduction(+ : sink)
+    {
+        long n = total / omp_get_num_threads();
+        double x = 1.0;
+        for (long i = 0; i < n; i++)
+            x = x * 1.0000001 + 1e-9;
+        sink += x;
+    }
+    printf("spin: %d thread(s) %.3f s (checksum %.3f)\n", omp_get_max_threads(),
+           omp_get_wtime() - t0, sink > 0 ? 1.0 : 0.0);
+    return 0;
+}
+
 int main(int argc, char **argv)
 {
     dataset ds;
     int rc;
+    if (argc == 2 && strcmp(argv[1], "spin") == 0)
+        return spin();
     if (argc >= 3 && strcmp(argv[1], "sp04") == 0) {
         int64_t n = argc > 3 ? atoll(argv[3]) : 512;
         if (n < 1) {
@@ -302,6 +329,7 @@ int main(int argc, char **argv)
         rc = make_sequence(&ds, argv[3], n, gzip);
     } else {
         fprintf(stderr, "usage: dtx_bench sp04 DATA_DIR [NFRAMES]\n"
+                        "       dtx_bench spin\n"
                         "       dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
         return 2;
     }
