@@ -748,6 +748,16 @@ dtx_status dtx_job_parse(const char *text, size_t len, const char *name, const c
         st = dtx_seterr(err, DTX_EPARSE, "%s: empty job file (expected a JSON object)", name);
         goto fail;
     }
+    /* cJSON copies a NUL byte inside a string and the C string then ends
+     * there: "in.h5\0junk" would silently read as "in.h5". */
+    {
+        const char *nul = memchr(text, '\0', len);
+        if (nul) {
+            st = syntax_error(name, text, len, (size_t)(nul - text), "NUL byte (not a text file)",
+                              err);
+            goto fail;
+        }
+    }
     doc = cJSON_ParseWithLengthOpts(text, len, &end, 0);
     if (!doc) {
         st = syntax_error(name, text, len, end ? (size_t)(end - text) : len, NULL, err);

@@ -21,6 +21,10 @@
 #define MAX_DEPTH 256
 /* Deepest nesting of the schema itself. */
 #define MAX_SCHEMA_DEPTH 64
+/* The work allowed: this many schema applications per value of the
+ * document, plus a floor (dtx's job schema needs fewer than 10 per value). */
+#define STEPS_PER_VALUE 256L
+#define STEPS_MIN 100000L
 
 typedef struct {
     dtx_status code;
@@ -33,6 +37,15 @@ typedef struct {
     char ptr[512];     /* JSON pointer of the value being checked */
     size_t ptrlen;
     int depth;
+    /* The $ref hops being followed, as (target schema, document value)
+     * pairs: meeting a pair again means the references loop without going
+     * deeper into the document. */
+    const cJSON *ref_s[MAX_DEPTH], *ref_d[MAX_DEPTH];
+    int nrefs;
+    /* Schema applications left: oneOf / anyOf whose branches refer back to
+     * them can take time exponential in the document's depth, so the work
+     * is bounded by a multiple of the document's size. */
+    long steps_left;
 } vctx;
 
 /* ------------------------------------------------------------------ */
@@ -104,19 +117,22 @@ static void fmt_num(double x, char *buf, size_t n)
         snprintf(buf, n, "%.17g", x);
 }
 
-/* A string as a JSON literal, shortened to about 40 characters. */
+/* A string as a JSON literal, shortened to about 40 characters (and to
+ * what fits in n bytes), with "..." when shortened.  Each character takes
+ * up to 6 bytes ("\u001f"), so one is written only when it, a following
+ * "...", the closing quote and the NUL all still fit. */
 static void fmt_str(const char *s, char *buf, size_t n)
 {
     size_t k = 0, shown = 0;
-    if (n < 8) {
+    if (n < 12) {
         if (n)
             buf[0] = '\0';
         return;
     }
     buf[k++] = '"';
-    for (; *s && k + 6 < n; s++) {
+    for (; *s; s++) {
         unsigned char ch = (unsigned char)*s;
-        if (shown >= 40) {
+        if (shown >= 40 || k + 6 + 3 + 2 > n) {
             memcpy(buf + k, "...", 3);
             k += 3;
             break;
@@ -530,6 +546,10 @@ static dtx_status walk_generic(vctx *c, const cJSON *d, verr *e)
         return fail(c, e, DTX_ENOMEM, "out of memory");
     if (c->depth >= MAX_DEPTH)
         return fail(c, e, DTX_EJOB, "nested too deeply (more than %d levels)", MAX_DEPTH);
+    if (--c->steps_left < 0)
+        return fail(c, e, DTX_EINVAL,
+                    "schema error: validating this document takes too many steps (oneOf / "
+                    "anyOf branches that refer back to themselves?)");
     c->depth++;
     for (m = d->child; m; m = m->next, i++) {
         size_t len = c->ptrlen;
@@ -935,18 +955,37 @@ static dtx_status validate(vctx *c, const cJSON *s, const cJSON *d, verr *e)
         return fail(c, e, DTX_EJOB, "no value is allowed here");
     if (c->depth >= MAX_DEPTH)
         return fail(c, e, DTX_EJOB, "nested too deeply (more than %d levels)", MAX_DEPTH);
+    if (--c->steps_left < 0)
+        return fail(c, e, DTX_EINVAL,
+                    "schema error: validating this document takes too many steps (oneOf / "
+                    "anyOf branches that refer back to themselves?)");
     c->depth++;
 
     /* $ref applies the referenced schema in place. */
     kw = cJSON_GetObjectItemCaseSensitive(s, "$ref");
     if (cJSON_IsString(kw)) {
         const cJSON *target = resolve_ref(c->root, kw->valuestring);
+        int i;
         if (!target) {
             st = fail(c, e, DTX_EINVAL, "schema error: cannot resolve \"$ref\": \"%s\"",
                       kw->valuestring);
             goto done;
         }
-        if ((st = validate(c, target, d, e)) != DTX_OK)
+        for (i = 0; i < c->nrefs; i++)
+            if (c->ref_s[i] == target && c->ref_d[i] == d) {
+                st = fail(c, e, DTX_EINVAL,
+                          "schema error: \"$ref\": \"%s\" refers back to itself without "
+                          "going deeper into the document",
+                          kw->valuestring);
+                goto done;
+            }
+        /* nrefs < depth <= MAX_DEPTH: every hop is one validate() level. */
+        c->ref_s[c->nrefs] = target;
+        c->ref_d[c->nrefs] = d;
+        c->nrefs++;
+        st = validate(c, target, d, e);
+        c->nrefs--;
+        if (st != DTX_OK)
             goto done;
     }
 
@@ -993,6 +1032,20 @@ done:
     return st;
 }
 
+/* The number of values in v (itself included); cJSON limits the nesting
+ * of what it parses (CJSON_NESTING_LIMIT), the depth cap covers documents
+ * built in memory. */
+static long count_values(const cJSON *v, int depth)
+{
+    const cJSON *m;
+    long n = 1;
+    if (depth > 4 * MAX_DEPTH)
+        return n;
+    for (m = v->child; m && (cJSON_IsArray(v) || cJSON_IsObject(v)); m = m->next)
+        n += count_values(m, depth + 1);
+    return n;
+}
+
 dtx_status dtx_json_validate(const cJSON *schema, const cJSON *doc, char *msg, size_t msgsize)
 {
     vctx c;
@@ -1013,6 +1066,7 @@ dtx_status dtx_json_validate(const cJSON *schema, const cJSON *doc, char *msg, s
 
     memset(&c, 0, sizeof c);
     c.root = schema;
+    c.steps_left = STEPS_PER_VALUE * count_values(doc, 0) + STEPS_MIN;
     memset(&e, 0, sizeof e);
     st = validate(&c, schema, doc, &e);
     if (st && msg && msgsize) {

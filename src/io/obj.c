@@ -206,7 +206,8 @@ dtx_status dtx_obj_parse(const char *name, const char *buf, size_t len, dtx_mesh
                     }
                     idx = (int32_t)(vi - 1);
                 } else {
-                    if (r != 0 || -vi > cur_v) {
+                    /* vi < -cur_v, not -vi > cur_v: -INT64_MIN overflows. */
+                    if (r != 0 || vi < -cur_v) {
                         st = dtx_seterr(err, DTX_ERANGE,
                                         "%s:%ld: relative face index %s refers before the first "
                                         "vertex (%lld vertices defined so far)",

@@ -53,6 +53,7 @@ typedef struct {
     const char *name;
     const unsigned char *p; /* data */
     size_t len, pos;
+    size_t base; /* offset of the data in the file, for messages */
     int fmt;
     long line; /* ascii: the line of the cursor */
 } ply_in;
@@ -157,13 +158,14 @@ static int read_value(ply_in *in, ply_type t, double *dv, int64_t *iv)
     }
 }
 
-/* "name:LINE" for ascii data, "name (byte N)" for binary. */
+/* "name:LINE" for ascii data, "name (byte offset N)" for binary, N counted
+ * from the start of the file (pos is relative to the data). */
 static const char *where(const ply_in *in, size_t pos, char *buf, size_t n)
 {
     if (in->fmt == FMT_ASCII)
         snprintf(buf, n, "%.700s:%ld", in->name, in->line);
     else
-        snprintf(buf, n, "%.700s (byte offset %zu)", in->name, pos);
+        snprintf(buf, n, "%.700s (byte offset %zu)", in->name, in->base + pos);
     return buf;
 }
 
@@ -446,6 +448,7 @@ dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh
     in.p = (const unsigned char *)buf + h.data_start;
     in.len = len - h.data_start;
     in.pos = 0;
+    in.base = h.data_start;
     in.fmt = h.fmt;
     in.line = h.data_line;
     if (h.fmt == FMT_ASCII && dtx_has_nul((const char *)in.p, in.len)) {

@@ -835,6 +835,44 @@ static void test_corpus(void)
     CHECK_INT(n, >=, 5);
 }
 
+/* Inputs found by the fuzzer (tests/fuzz/fuzz_job.c).  Keys and values
+ * made of control characters are quoted in messages as 6-byte \u escapes;
+ * 20 or more of them overran the validator's 128-byte quoting buffer (a
+ * stack overflow).  Now they are shortened with "...". */
+static void test_fuzz_regressions(void)
+{
+    char ctl[121], src[400], extra[400];
+    memset(ctl, '\r', 120);
+    ctl[120] = '\0';
+    /* The fuzzer's input, reduced: an unknown key in /source. */
+    snprintf(src, sizeof src, "{\"%s\":\"x\",\"file\":\"in.h5\"}", ctl);
+    EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "job.json: at /source: unknown key \"\\u000d");
+    EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "\\u000d...\" (allowed: file, mesh, sequences)");
+    /* A value (in "got ...") and a top-level key. */
+    snprintf(extra, sizeof extra, ",\"sp04\":{\"w_smooth\":\"%s\"}", ctl);
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, extra),
+                "job.json: at /sp04/w_smooth: expected a number, got \"\\u000d");
+    snprintf(extra, sizeof extra, ",\"%s\":1", ctl);
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, extra), "job.json: at the top level: unknown key");
+
+    /* A NUL byte inside a string once cut the value short silently
+     * ("/meshes/cat\0junk" read as "/meshes/cat"); now the text is refused
+     * at the NUL. */
+    {
+        const char t[] = "{\"dtx_job\":1,\"method\":\"sp04\",\n\"source\":{\"file\":\"in.h5\","
+                         "\"mesh\":\"/meshes/cat\0junk\",\"sequences\":[\"/s\"]}}";
+        dtx_job job;
+        dtx_error err_, *err = &err_;
+        memset(err, 0, sizeof *err);
+        CHECK_EQ_INT(dtx_job_parse(t, sizeof t - 1, "job.json", "/data", 0, &job, err), DTX_EPARSE);
+        CHECK(strstr(err->msg, "job.json:2:45: JSON syntax error: NUL byte (not a text file) "
+                               "near '\\x00junk") != NULL);
+        if (!strstr(err->msg, "job.json:2:45:"))
+            fprintf(stderr, "  message: %s\n", err->msg);
+        CHECK(job.text == NULL);
+    }
+}
+
 int main(void)
 {
     test_embedded_schema();
@@ -850,5 +888,6 @@ int main(void)
     test_files();
     test_params_json();
     test_corpus();
+    test_fuzz_regressions();
     return check_report();
 }

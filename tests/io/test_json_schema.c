@@ -314,12 +314,10 @@ static void test_refs(void)
     /* Recursive schemas work; the document pointer keeps growing. */
     EXPECT_OK(s, "{\"z\":[{\"z\":[{\"x\":5}]}]}");
     EXPECT_ERR(s, "{\"z\":[{\"z\":[{\"x\":true}]}]}", "at /z/0/z/0/x: expected a number, got true");
-    /* A $ref cycle that never descends ends with an error, not a crash. */
-    {
-        char msg[256];
-        CHECK(run("{\"$ref\":\"#\"}", "1", msg, sizeof msg) != DTX_OK);
-        CHECK(strstr(msg, "nested too deeply") != NULL);
-    }
+    /* A $ref cycle that never descends is a schema error, not a crash. */
+    EXPECT_SCHEMA_ERR("{\"$ref\":\"#\"}", "1",
+                      "schema error: \"$ref\": \"#\" refers back to itself without going "
+                      "deeper into the document");
 }
 
 static void test_schema_errors(void)
@@ -362,6 +360,76 @@ static void test_pointer_append(void)
     CHECK_EQ_INT(strlen(buf), 15);
 }
 
+/* Inputs found by the fuzzer (tests/fuzz/fuzz_job.c): keys and strings of
+ * control characters, each shown as a 6-byte \u escape, once overran the
+ * 128-byte buffer that quotes them in messages. */
+static int starts_with(const char *s, const char *prefix)
+{
+    return strncmp(s, prefix, strlen(prefix)) == 0;
+}
+
+static void test_fuzz_regressions(void)
+{
+    char doc[256], msg[1024], want[1024];
+    /* Every length around the old overflow, as an unknown key and as a
+     * string value. */
+    for (int len = 0; len <= 60; len++) {
+        char key[64];
+        dtx_status st;
+        memset(key, '\r', (size_t)len);
+        key[len] = '\0';
+        snprintf(doc, sizeof doc, "{\"%s\": 1}", key);
+        st = run("{\"properties\": {\"a\": true}, \"additionalProperties\": false}", doc, msg,
+                 sizeof msg);
+        CHECK_EQ_INT(st, DTX_EJOB);
+        CHECK(starts_with(msg, "at the top level: unknown key \""));
+        CHECK(strstr(msg, "(allowed: a)") != NULL);
+        CHECK(strlen(msg) < 200);
+        snprintf(doc, sizeof doc, "\"%s\"", key);
+        st = run("{\"type\": \"integer\"}", doc, msg, sizeof msg);
+        CHECK_EQ_INT(st, DTX_EJOB);
+        CHECK(starts_with(msg, "at the top level: expected an integer, got \""));
+        CHECK(strlen(msg) < 200);
+    }
+    /* The shortened form: escapes up to the room left, then "...". */
+    memset(doc, 0, sizeof doc);
+    strcpy(doc, "{\"");
+    memset(doc + 2, '\r', 30);
+    strcpy(doc + 32, "\": 1}");
+    strcpy(want, "at the top level: unknown key \"");
+    for (int i = 0; i < 20; i++)
+        strcat(want, "\\u000d");
+    strcat(want, "...\" (allowed: a)");
+    EXPECT_ERR("{\"properties\": {\"a\": true}, \"additionalProperties\": false}", doc, want);
+
+    /* A $ref loop through anyOf once took 2^256 steps (a hang); now the
+     * loop is found at once. */
+    EXPECT_SCHEMA_ERR("{\"$defs\":{\"a\":{\"anyOf\":[{\"$ref\":\"#/$defs/a\"},"
+                      "{\"$ref\":\"#/$defs/a\"}]}},\"$ref\":\"#/$defs/a\"}",
+                      "1",
+                      "schema error: \"$ref\": \"#/$defs/a\" refers back to itself without "
+                      "going deeper into the document");
+    /* Branches that recurse into the document (legal, but exponential in
+     * its depth) stop at the step budget instead of running for ages. */
+    {
+        /* anyOf tries every branch, so each level doubles the work. */
+        const char *sch = "{\"$defs\":{\"a\":{\"anyOf\":[{\"items\":{\"$ref\":\"#/$defs/a\"}},"
+                          "{\"items\":{\"$ref\":\"#/$defs/a\"}}]}},\"$ref\":\"#/$defs/a\"}";
+        char deep[200];
+        int k = 0;
+        for (int i = 0; i < 60; i++)
+            deep[k++] = '[';
+        for (int i = 0; i < 60; i++)
+            deep[k++] = ']';
+        deep[k] = '\0';
+        EXPECT_SCHEMA_ERR(sch, deep,
+                          "schema error: validating this document takes too many steps (oneOf "
+                          "/ anyOf branches that refer back to themselves?)");
+        /* The same schema on a shallow document is fine. */
+        EXPECT_OK(sch, "[[[[[[]]]]],[]]");
+    }
+}
+
 int main(void)
 {
     test_type();
@@ -374,5 +442,6 @@ int main(void)
     test_refs();
     test_schema_errors();
     test_pointer_append();
+    test_fuzz_regressions();
     return check_report();
 }

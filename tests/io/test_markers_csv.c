@@ -289,6 +289,48 @@ static void test_corpus(void)
     CHECK(seen >= 4);
 }
 
+/* The bad-input rows the tests above do not cover.  Binary garbage fails
+ * cleanly.  Out-of-range and repeated vertices are, as documented, left to
+ * dtx_markers_validate (the reader knows no mesh): the reader accepts them
+ * and the check rejects them naming the file. */
+static void test_bad_input_rows(void)
+{
+    dtx_markers m;
+    dtx_error err;
+    char g[2048];
+    uint32_t x = 5;
+    for (size_t i = 0; i < sizeof g; i++) {
+        x = x * 1664525u + 1013904223u;
+        g[i] = (char)((x >> 24) | 1); /* no NUL: the parser reads it all */
+    }
+    for (int base = -1; base <= 1; base++) {
+        CHECK(parse_n(g, sizeof g, base, &m, &err) != DTX_OK);
+        CHECK(strncmp(err.msg, "m.csv", 5) == 0);
+        CHECK(m.src == NULL);
+        dtx_markers_free(&m);
+    }
+    g[100] = '\0';
+    CHECK_EQ_INT(parse_n(g, sizeof g, 0, &m, &err), DTX_EPARSE);
+    CHECK(strstr(err.msg, "m.csv: not a text file") != NULL);
+
+    /* the wrong base: index 0 in a 1-based file (above) and a -1 */
+    expect_fail("# index_base: 0\n-1,2\n", -1, DTX_ERANGE,
+                "m.csv:2: source vertex index -1 in a 0-based file");
+    expect_fail("# index_base: 1\n1,2\n", 0, DTX_EINVAL, "the file says index_base 1");
+
+    /* out of range and repeated: read, then rejected by the check */
+    CHECK_OK(parse("# index_base: 1\n1,1\n9,2\n", -1, &m, &err), &err);
+    CHECK_EQ_INT(m.n, 2);
+    CHECK_EQ_INT(dtx_markers_validate(&m, 5, 5, "m.csv", &err), DTX_ERANGE);
+    CHECK(strncmp(err.msg, "m.csv: ", 7) == 0 && strstr(err.msg, "out of range") != NULL);
+    dtx_markers_free(&m);
+    CHECK_OK(parse("1,1,a\n2,3,b\n1,4,c\n", 0, &m, &err), &err);
+    CHECK_EQ_INT(m.n, 3);
+    CHECK_EQ_INT(dtx_markers_validate(&m, 5, 5, "m.csv", &err), DTX_EINVAL);
+    CHECK(strncmp(err.msg, "m.csv: ", 7) == 0 && strstr(err.msg, "two markers") != NULL);
+    dtx_markers_free(&m);
+}
+
 int main(void)
 {
     test_base0_header();
@@ -296,6 +338,7 @@ int main(void)
     test_base_directive();
     test_bad();
     test_truncation();
+    test_bad_input_rows();
     test_files();
     test_corpus();
     return check_report();

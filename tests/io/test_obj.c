@@ -401,6 +401,21 @@ static void test_mutations(void)
     free(b);
 }
 
+/* Inputs found by the fuzzer (tests/fuzz/fuzz_obj.c), each once a crash or
+ * undefined behaviour under the sanitizers; now clean errors. */
+static void test_fuzz_regressions(void)
+{
+    /* INT64_MIN as a relative index: "-vi > cur_v" negated INT64_MIN. */
+    expect_fail("v 0 1 1\nv 0 0 0\nf -9223372036854775808 /1/3-ar\n", DTX_ERANGE,
+                "t.obj:3: relative face index -9223372036854775808 refers before the first "
+                "vertex (2 vertices defined so far)");
+    expect_fail("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9223372036854775808\n", DTX_ERANGE,
+                "t.obj:4: relative face index -9223372036854775808");
+    /* One below INT64_MIN does not parse as an int64 at all. */
+    expect_fail("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 -9223372036854775809\n", DTX_ERANGE,
+                "t.obj:4: relative face index -9223372036854775809");
+}
+
 /* ------------------------------------------------------------------ writer */
 
 static int file_exists(const char *p)
@@ -702,6 +717,7 @@ int main(void)
     test_binary_and_long_lines();
     test_truncation();
     test_mutations();
+    test_fuzz_regressions();
     test_write_roundtrip();
     test_write_failures();
     test_dispatch();

@@ -724,6 +724,124 @@ static void test_corpus(const char *sub)
     CHECK(seen >= 4);
 }
 
+/* ============================================================ bad-input rows
+ * The rows of the bad-input table not covered above: binary garbage,
+ * non-finite and out-of-range values in binary PLY (whose messages give
+ * byte offsets), and list counts larger than the data. */
+
+/* Writes into b a little-endian binary PLY: 3 float vertices (xyz) and 1
+ * face with the list count `count` of type count_type ("uchar" or "uint")
+ * followed by the nidx indices idx.  Returns its length. */
+static size_t bin_ply(unsigned char *b, const char *count_type, const float *xyz, uint32_t count,
+                      const int32_t *idx, int nidx)
+{
+    size_t n = (size_t)sprintf((char *)b,
+                               "ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                               "property float x\nproperty float y\nproperty float z\n"
+                               "element face 1\nproperty list %s int vertex_indices\n"
+                               "end_header\n",
+                               count_type);
+    for (int i = 0; i < 9; i++) {
+        uint32_t u;
+        memcpy(&u, &xyz[i], 4);
+        for (int k = 0; k < 4; k++)
+            b[n++] = (unsigned char)(u >> (8 * k));
+    }
+    if (strcmp(count_type, "uchar") == 0) {
+        b[n++] = (unsigned char)count;
+    } else {
+        for (int k = 0; k < 4; k++)
+            b[n++] = (unsigned char)(count >> (8 * k));
+    }
+    for (int i = 0; i < nidx; i++)
+        for (int k = 0; k < 4; k++)
+            b[n++] = (unsigned char)((uint32_t)idx[i] >> (8 * k));
+    return n;
+}
+
+static void test_bad_input_rows(void)
+{
+    unsigned char b[1024];
+    float xyz[9] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
+    int32_t tri[3] = {0, 1, 2};
+    size_t n, hdr;
+    dtx_mesh m;
+    dtx_error err;
+
+    /* the good file, to be sure the variants differ only where meant */
+    n = bin_ply(b, "uchar", xyz, 3, tri, 3);
+    CHECK_OK(run(dtx_ply_parse, "b.ply", (char *)b, n, &m, NULL, &err), &err);
+    CHECK_EQ_INT(m.nf, 1);
+    dtx_mesh_free(&m);
+    hdr = n - 9 * 4 - 1 - 3 * 4;
+
+    /* NaN and infinity in binary data: the vertex and its byte offset */
+    xyz[4] = NAN;
+    n = bin_ply(b, "uchar", xyz, 3, tri, 3);
+    expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ENONFINITE, "b.ply (byte offset");
+    expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ENONFINITE,
+                  "vertex 1 (0-based) has a non-finite coordinate");
+    xyz[4] = -INFINITY;
+    n = bin_ply(b, "uchar", xyz, 3, tri, 3);
+    expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ENONFINITE,
+                  "vertex 1 (0-based) has a non-finite coordinate");
+    xyz[4] = 0;
+
+    /* out of range and negative indices, at the offset of the index */
+    {
+        int32_t bad[3] = {0, 3, 2};
+        char want[128];
+        n = bin_ply(b, "uchar", xyz, 3, bad, 3);
+        snprintf(want, sizeof want,
+                 "b.ply (byte offset %zu): face 0 (0-based): vertex index 3 out of range [0, 3)",
+                 hdr + 9 * 4 + 1 + 4);
+        expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ERANGE, want);
+        bad[1] = -1;
+        n = bin_ply(b, "uchar", xyz, 3, bad, 3);
+        expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ERANGE,
+                      "face 0 (0-based): vertex index -1 out of range [0, 3)");
+        bad[1] = INT32_MIN;
+        n = bin_ply(b, "uchar", xyz, 3, bad, 3);
+        expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_ERANGE,
+                      "vertex index -2147483648 out of range");
+    }
+
+    /* a list count far beyond the data (4294967295 indices announced, 3
+     * present): the end of the data, not a huge allocation */
+    n = bin_ply(b, "uint", xyz, UINT32_MAX, tri, 3);
+    expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_EPARSE,
+                  "unexpected end of data in element 'face' item 0");
+    n = bin_ply(b, "uchar", xyz, 255, tri, 3);
+    expect_fail_n(dtx_ply_parse, "b.ply", (char *)b, n, DTX_EPARSE,
+                  "unexpected end of data in element 'face' item 0");
+
+    /* binary garbage, whole files and after a valid header: clean errors
+     * naming the file */
+    {
+        char g[4096];
+        uint32_t x = 99;
+        for (size_t i = 0; i < sizeof g; i++) {
+            x = x * 1664525u + 1013904223u;
+            g[i] = (char)(x >> 24);
+        }
+        expect_fail_n(dtx_ply_parse, "g.ply", g, sizeof g, DTX_EPARSE, "g.ply: not a PLY file");
+        expect_fail_n(dtx_off_parse, "g.off", g, sizeof g, DTX_EPARSE, "g.off: not a text file");
+        for (size_t i = 0; i < sizeof g; i++)
+            g[i] = g[i] ? g[i] : 'z'; /* no NUL: the text parsers go further */
+        CHECK(run(dtx_off_parse, "g.off", g, sizeof g, &m, NULL, &err) != DTX_OK);
+        CHECK(strncmp(err.msg, "g.off:", 6) == 0);
+        dtx_mesh_free(&m);
+        bin_ply(b, "uchar", xyz, 3, tri, 3); /* the header hdr was measured on */
+        memcpy(g, b, hdr);
+        CHECK(run(dtx_ply_parse, "g.ply", g, sizeof g, &m, NULL, &err) != DTX_OK || mesh_sane(&m));
+        dtx_mesh_free(&m);
+        memcpy(g, "ply\nformat ascii 1.0\n", 21);
+        CHECK(run(dtx_ply_parse, "g.ply", g, sizeof g, &m, NULL, &err) != DTX_OK);
+        CHECK(strncmp(err.msg, "g.ply", 5) == 0);
+        dtx_mesh_free(&m);
+    }
+}
+
 int main(void)
 {
     test_ply_ascii();
@@ -735,6 +853,7 @@ int main(void)
     test_off_good();
     test_off_bad();
     test_off_truncation();
+    test_bad_input_rows();
     test_files();
     test_real_data();
     test_corpus("ply");

@@ -1,0 +1,10 @@
+/* fuzz_ply.c: libFuzzer harness for dtx_ply_parse (src/io/ply.c): any input
+ * gives either a valid mesh or a clean error naming the file. */
+#include "fuzz_util.h"
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+
+int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
+{
+    return fuzz_mesh_parser(dtx_ply_parse, "fuzz.ply", data, size);
+}
