@@ -106,7 +106,8 @@ typedef struct {
 /* Reads, parses and validates the job at path.  On failure err->msg names
  * the file, the location in the document (a JSON pointer such as
  * /targets/0/markers/index_base) and what was expected; *job is left empty.
- * Checks done here: JSON syntax (with line number), the schema (unknown
+ * Checks done here: JSON syntax (with line number; a NUL byte anywhere in
+ * the text is a syntax error, not a silently shortened string), the schema (unknown
  * keys, types, required fields, enums, ranges), and cross-field rules (csv
  * markers need index_base; pins need translation "pins" or "fixed"; output
  * file must differ from every input file; input files must exist). */

@@ -49,8 +49,11 @@
  * fits better than the others, one sentence lists every branch's error.
  *
  * Returns DTX_EINVAL (with a message) when the schema itself uses an
- * unsupported keyword, has a bad value for a keyword, an unresolvable $ref
- * or an invalid pattern, and DTX_ENOMEM when out of memory.
+ * unsupported keyword, has a bad value for a keyword, an unresolvable $ref,
+ * a $ref loop that does not go deeper into the document, or an invalid
+ * pattern; also DTX_EINVAL when validation exceeds its step limit (256
+ * steps per document value, at least 100,000), and DTX_ENOMEM when out of
+ * memory.
  *
  * Thread-safe (no global state; regular expressions are compiled per call).
  */

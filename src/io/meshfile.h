@@ -83,7 +83,8 @@ dtx_status dtx_obj_parse(const char *name, const char *buf, size_t len, dtx_mesh
  * properties, lists included, are skipped) and an `element face` with a list
  * property `vertex_indices` or `vertex_index` (integer count and item
  * types).  Other elements are skipped.  Vertex numbers in messages are
- * 0-based, as in the file.  Binary locations are given as byte offsets. */
+ * 0-based, as in the file.  Binary locations are given as byte offsets
+ * from the start of the file. */
 dtx_status dtx_ply_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err);
 dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
                          const dtx_warner *w, dtx_error *err);
