@@ -11,7 +11,7 @@ set -uo pipefail
 # Runs that must not allocate before checking sizes do so under a 1 GiB
 # address-space limit; a sanitizer build reserves terabytes of shadow memory
 # at start, so there the limit is left off (the plain build checks it).
-if ldd "$DTX" | grep -q libasan; then VLIMIT=""; else VLIMIT="ulimit -v 1048576;"; fi
+if [[ $(ldd "$DTX") == *libasan* ]]; then VLIMIT=""; else VLIMIT="ulimit -v 1048576;"; fi
 W="$DTX_TESTDATA"
 PY=/usr/bin/python3
 cd "$W" || exit 1
@@ -371,7 +371,7 @@ job j_outcsv src src tgt
 sed -i 's#"file": "j_outcsv.h5"#"file": "markers.csv"#' j_outcsv.json
 reject job-output-is-input "" 'j_outcsv\.json: at /output/file: the output file .*markers\.csv is also an input \(/targets/0/markers/csv\)' \
     "$DTX" run j_outcsv.json
-head -2 markers.csv | tail -1 | grep -q '0,0,top' || bad job-output-is-input "markers.csv was touched"
+[[ $(sed -n 2p markers.csv) == *0,0,top* ]] || bad job-output-is-input "markers.csv was touched"
 job j_nomesh src src tgt
 sed -i 's#"mesh": "/meshes/src"#"mesh": "/meshes/nope"#' j_nomesh.json
 reject job-missing-object j_nomesh.h5 'in\.h5: /meshes/nope: missing \(no such mesh group\)' "$DTX" run j_nomesh.json
