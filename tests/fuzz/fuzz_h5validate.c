@@ -15,6 +15,7 @@
  * read back (fz_check_file): clean errors only, and a file the validator
  * passes must be readable.
  */
+#include <sanitizer/lsan_interface.h>
 #include "fuzz_h5common.h"
 
 int LLVMFuzzerInitialize(int *argc, char ***argv);
@@ -495,6 +496,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     int nedits = 0;
 
     fz_write_file(fz_path, base, base_size);
+    /* The edits are the harness's own HDF5 calls: what HDF5 loses when one
+     * of them leaves a file it cannot close is not a dtx leak.  Leak checks
+     * are back on for dtx's validation below. */
+    __lsan_disable();
     f = H5Fopen(fz_path, H5F_ACC_RDWR, H5P_DEFAULT);
     FUZZ_ASSERT(f >= 0);
     while (in.n > 0 && nedits++ < 12) {
@@ -523,7 +528,16 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             break;
         }
     }
-    FUZZ_ASSERT(H5Fclose(f) >= 0);
+    /* Some edit sequences leave a file HDF5 itself cannot close (flush)
+     * cleanly; that is the harness's doing, not an input dtx ever sees:
+     * drop such inputs from the corpus instead of reporting them. */
+    if (H5Fclose(f) < 0) {
+        /* HDF5 keeps (and later leaks) the file it could not close; see
+         * tests/fuzz/h5validate.lsan.supp. */
+        __lsan_enable();
+        return -1;
+    }
+    __lsan_enable();
     fz_check_file(fz_path, 1);
     return 0;
 }
