@@ -800,8 +800,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         goto done;
     if ((st = agree(r->comm, dtx_h5_create(r->partial, r->comm, &r->out, err), err)) != DTX_OK)
         goto done;
-    st = params ? dtx_h5_write_attr_str(r->out, ".", "dtx_run_key", r->run_key, err)
-                : dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    st = params ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
     snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
@@ -842,7 +841,11 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             rc->open = st == DTX_OK;
         }
     }
-    /* Everything the frame loop needs exists on disk before any frame. */
+    /* The key that lets --resume continue this file goes in last, once
+     * every object exists; everything the frame loop needs is on disk
+     * before any frame. */
+    if (st == DTX_OK)
+        st = dtx_h5_write_attr_str(r->out, ".", "dtx_run_key", r->run_key, err);
     if (st == DTX_OK)
         st = dtx_h5_flush(r->out, err);
     if (st == DTX_OK && r->rank == 0)
@@ -1432,6 +1435,24 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             goto fail;
         out_started = 1;
         st = r.mode == OUT_RESUME ? reopen_output(&r, err) : create_output(&r, err);
+        if (st != DTX_OK && r.mode == OUT_RESUME) {
+            /* A partial killed while it was being set up can carry the key
+             * and still miss objects: start over rather than fail. */
+            say(&r, "dtx: cannot continue %s (%s): starting over", r.partial, err->msg);
+            for (int t = 0; t < r.nt; t++)
+                for (int s = 0; s < r.ns; s++)
+                    if (RESULT(&r, t, s)->open) {
+                        dtx_h5_result_close(&RESULT(&r, t, s)->res);
+                        RESULT(&r, t, s)->open = 0;
+                    }
+            memset(r.rs, 0, (size_t)r.nt * (size_t)r.ns * sizeof *r.rs);
+            if (r.out >= 0)
+                dtx_h5_close(&r.out, NULL);
+            r.mode = OUT_FRESH;
+            err->code = DTX_OK;
+            err->msg[0] = '\0';
+            st = create_output(&r, err);
+        }
         if (st == DTX_OK)
             st = count_todo(&r, err);
         if (st != DTX_OK)
