@@ -90,6 +90,9 @@ if [[ $sanitize_tests == 1 ]]; then
     export UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1
     # Lets test scripts know the binaries are sanitized (e.g. to skip valgrind).
     export DTX_SANITIZED=1
+    # LeakSanitizer's tracer crashes at exit in ranks OpenMPI starts unbound
+    # (--bind-to none) on this kind of machine: this mpirun drops that flag.
+    export PATH="$repo/tests/sanitizer-bin:$PATH"
     run_pass build-asan --sanitize
 fi
 
