@@ -230,6 +230,16 @@ static void stats_add(run_stats *s, double v)
     s->max = v > s->max ? v : s->max;
 }
 
+/* Adds the frames of b to a. */
+static void stats_merge(run_stats *a, const run_stats *b)
+{
+    a->frames += b->frames;
+    a->sum += b->sum;
+    a->sumsq += b->sumsq;
+    a->min = b->min < a->min ? b->min : a->min;
+    a->max = b->max > a->max ? b->max : a->max;
+}
+
 /* The statistics of all ranks, on rank 0. */
 static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
 {
@@ -1192,6 +1202,17 @@ done:
 /* 7. Finish                                                           */
 /* ------------------------------------------------------------------ */
 
+/* Closes every open result handle (not collective). */
+static void close_results(run_state *r)
+{
+    for (int t = 0; r->rs && t < r->nt; t++)
+        for (int s = 0; s < r->ns; s++)
+            if (RESULT(r, t, s)->open) {
+                dtx_h5_result_close(&RESULT(r, t, s)->res);
+                RESULT(r, t, s)->open = 0;
+            }
+}
+
 static dtx_status finish_output(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
@@ -1214,12 +1235,7 @@ static dtx_status finish_output(run_state *r, dtx_error *err)
         if (agree(r->comm, st, err) != DTX_OK)
             return err->code;
     }
-    for (int t = 0; t < r->nt; t++)
-        for (int s = 0; s < r->ns; s++)
-            if (RESULT(r, t, s)->open) {
-                dtx_h5_result_close(&RESULT(r, t, s)->res);
-                RESULT(r, t, s)->open = 0;
-            }
+    close_results(r);
     if (agree(r->comm, dtx_h5_close(&r->out, err), err) != DTX_OK)
         return err->code;
     if (r->rank == 0 && rename(r->partial, r->job.output_file) != 0)
@@ -1369,10 +1385,7 @@ static void summarise(run_state *r)
 
 static void release(run_state *r)
 {
-    for (int t = 0; r->rs && t < r->nt; t++)
-        for (int s = 0; s < r->ns; s++)
-            if (RESULT(r, t, s)->open)
-                dtx_h5_result_close(&RESULT(r, t, s)->res);
+    close_results(r);
     if (r->out >= 0)
         dtx_h5_close(&r->out, NULL);
     for (int s = 0; r->sq && s < r->ns; s++)
@@ -1439,12 +1452,7 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             /* A partial killed while it was being set up can carry the key
              * and still miss objects: start over rather than fail. */
             say(&r, "dtx: cannot continue %s (%s): starting over", r.partial, err->msg);
-            for (int t = 0; t < r.nt; t++)
-                for (int s = 0; s < r.ns; s++)
-                    if (RESULT(&r, t, s)->open) {
-                        dtx_h5_result_close(&RESULT(&r, t, s)->res);
-                        RESULT(&r, t, s)->open = 0;
-                    }
+            close_results(&r);
             memset(r.rs, 0, (size_t)r.nt * (size_t)r.ns * sizeof *r.rs);
             if (r.out >= 0)
                 dtx_h5_close(&r.out, NULL);
@@ -1466,14 +1474,8 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
         if ((st = transfer_all(&r, err)) != DTX_OK)
             goto fail;
         for (int t = 0; t < r.nt; t++)
-            for (int s = 0; s < r.ns; s++) {
-                const run_stats *p = &RESULT(&r, t, s)->st;
-                r.stats.frames += p->frames;
-                r.stats.sum += p->sum;
-                r.stats.sumsq += p->sumsq;
-                r.stats.min = p->min < r.stats.min ? p->min : r.stats.min;
-                r.stats.max = p->max > r.stats.max ? p->max : r.stats.max;
-            }
+            for (int s = 0; s < r.ns; s++)
+                stats_merge(&r.stats, &RESULT(&r, t, s)->st);
         if ((st = finish_output(&r, err)) != DTX_OK)
             goto fail;
         if (r.rank == 0)
