@@ -3,8 +3,9 @@
 #
 # Usage: scripts/demo.sh
 #   Sets up, builds build/, unpacks the bundled meshes into build/data, imports
-#   them into build/demo/cat-lion.h5, runs jobs/cat-lion.json under mpirun, and
-#   validates the result. Safe to re-run (build/demo/cat-lion.h5 is rebuilt).
+#   them into build/demo/cat-lion.h5, runs jobs/cat-lion.json under mpirun,
+#   validates the result and draws a contact sheet of it (build/demo/cat-lion.png).
+#   Safe to re-run (build/demo/cat-lion.h5 is rebuilt).
 # Environment:
 #   DTX_NP                MPI ranks (default 2)
 #   OMP_NUM_THREADS       threads per rank (default 1)
@@ -70,6 +71,8 @@ if [[ $ncpu -lt $np ]]; then
 fi
 run "run $job on $np ranks x $OMP_NUM_THREADS threads" "${mpi[@]}" "$dtx" run "$job"
 run "validate $result" "$dtx" validate "$result"
+run "render a contact sheet of the result" "$dtx" render "$result" /results/lion/cat-poses \
+    -o "$demo/cat-lion.png"
 
 step="report"
 echo

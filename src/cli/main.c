@@ -3,6 +3,8 @@
  * and the driver, prints messages.  Exit status 0 on success, 1 on any
  * error (with "dtx: error: ..." on stderr), 2 on a usage error.
  */
+#include "cmd_generate.h"
+#include "cmd_render.h"
 #include "driver.h"
 #include "dtx_core.h"
 #include "h5layout.h"
@@ -32,6 +34,8 @@ static const char usage_text[] =
     "  dtx export FILE.h5 /results/TARGET/SEQUENCE --obj-dir DIR\n"
     "  dtx validate FILE.h5\n"
     "  dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]   (exit 1 if they differ)\n"
+    DTX_RENDER_USAGE
+    DTX_GENERATE_USAGE
     "  dtx version\n";
 
 static int usage(const char *msg)
@@ -559,6 +563,10 @@ int main(int argc, char **argv)
         return cmd_validate(argc, argv);
     if (strcmp(argv[1], "diff") == 0)
         return cmd_diff(argc, argv);
+    if (strcmp(argv[1], "render") == 0)
+        return dtx_cmd_render(argc, argv);
+    if (strcmp(argv[1], "generate") == 0)
+        return dtx_cmd_generate(argc, argv);
     if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
         printf("dtx %s\n", DTX_VERSION);
         return 0;
