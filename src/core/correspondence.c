@@ -21,6 +21,7 @@
  * 1 (and, by default, the source is aligned on the markers by a similarity
  * transform), which makes the weights and thresholds scale-invariant.
  */
+#include "correspondence_internal.h"
 #include "dtx_core.h"
 
 #include <cholmod.h>
@@ -59,6 +60,7 @@ void dtx_corr_free(dtx_corr *c)
         return;
     free(c->pairs);
     free(c->deformed_src);
+    free(c->deformed_tgt);
     memset(c, 0, sizeof *c);
 }
 
@@ -146,6 +148,18 @@ static void triangle_term(const int32_t *F, int32_t nv, int32_t f, const double 
     term_add(t, F[3 * f + 1], r, sign);
     term_add(t, F[3 * f + 2], r + 3, sign);
     term_add(t, nv + f, r + 6, sign);
+}
+
+/* The same for a tetrahedron: T[c, :] = sum_k (x_{var_k+1, c} - x_{var_0, c})
+ * inv[k, :]. */
+static void tet_term(const dtx__tet *q, term *t, double sign)
+{
+    const double *r = q->inv;
+    double g0[3] = {-(r[0] + r[3] + r[6]), -(r[1] + r[4] + r[7]), -(r[2] + r[5] + r[8])};
+    term_add(t, q->var[0], g0, sign);
+    term_add(t, q->var[1], r, sign);
+    term_add(t, q->var[2], r + 3, sign);
+    term_add(t, q->var[3], r + 6, sign);
 }
 
 /* ------------------------------------------------------------------ */
@@ -236,13 +250,31 @@ static int normal_filter(const void *ctx, int32_t prim)
 /* The deformation phases                                              */
 /* ------------------------------------------------------------------ */
 
-static dtx_status deform_source(const dtx_mesh *src, const double *S0, const double *Tn,
-                                const dtx_bvh *tbvh,
-                                const double *tnormals, const dtx_markers *mk,
-                                const dtx_corr_params *prm, double *X, int *solves,
-                                dtx_error *err)
+/* Emits the terms of E_R's tetrahedron pairs (dtx__tet, see the header). */
+static void assemble_tets(assembler *as, const dtx__tet *tets, int64_t ntetpairs,
+                          const dtx_corr_params *prm)
 {
-    const int32_t nv = src->nv, nf = src->nf, nvar = nv + nf;
+    static const double I3[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    for (int64_t p = 0; p < ntetpairs; p++) {
+        term ta, tb, td;
+        ta.n = tb.n = td.n = 0;
+        tet_term(&tets[2 * p], &ta, 1.0);
+        tet_term(&tets[2 * p + 1], &tb, 1.0);
+        tet_term(&tets[2 * p], &td, 1.0);
+        tet_term(&tets[2 * p + 1], &td, -1.0);
+        assemble_term(as, &td, NULL, prm->w_smooth);
+        assemble_term(as, &ta, I3, prm->w_identity);
+        assemble_term(as, &tb, I3, prm->w_identity);
+    }
+}
+
+dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                            const int32_t *fixv, const double *fixpos, int32_t nfix,
+                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                            const double *tnormals, const dtx_corr_params *prm, double *X,
+                            unsigned char *valid_out, int *solves, dtx_error *err)
+{
+    const int32_t nvar = nv + nf;
     const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
     dtx_status st = DTX_OK;
     cholmod_common cc;
@@ -274,27 +306,28 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
     for (int32_t v = 0; v < nvar; v++)
         freeidx[v] = v < nv ? -1 : 0;
     for (int64_t i = 0; i < 3 * (int64_t)nf; i++)
-        freeidx[src->F[i]] = 0;
+        freeidx[F[i]] = 0;
     for (int32_t v = 0; v < nv; v++)
         if (freeidx[v] < 0)
             memcpy(fixed + 3 * (size_t)v, S0 + 3 * (size_t)v, 3 * sizeof(double));
-    for (int32_t m = 0; m < mk->n; m++) {
-        freeidx[mk->src[m]] = -1;
-        memcpy(fixed + 3 * (size_t)mk->src[m], Tn + 3 * (size_t)mk->tgt[m], 3 * sizeof(double));
+    for (int32_t m = 0; m < nfix; m++) {
+        freeidx[fixv[m]] = -1;
+        memcpy(fixed + 3 * (size_t)fixv[m], fixpos + 3 * (size_t)m, 3 * sizeof(double));
     }
     for (int32_t v = 0; v < nvar; v++)
         if (freeidx[v] == 0)
             freeidx[v] = nfree++;
 
     eps_area = 1e-14; /* geometry is normalised to a unit target diagonal */
-    dtx_frame_inverses(S0, src->F, nf, eps_area, Vinv);
-    nadj = face_adjacency(src->F, nf, &adj);
+    dtx_frame_inverses(S0, F, nf, eps_area, Vinv);
+    nadj = face_adjacency(F, nf, &adj);
     if (nadj < 0)
         goto nomem;
 
     /* Base matrix (E_S + E_I) and its right-hand side. */
     {
-        size_t maxnz = (size_t)nadj * 36 + (size_t)nf * 10 + (size_t)nfree;
+        size_t maxnz = (size_t)nadj * 36 + (size_t)nf * 10 + (size_t)nfree +
+                       (size_t)ntetpairs * 3 * 36;
         assembler as;
         T = cholmod_allocate_triplet((size_t)nfree, (size_t)nfree, maxnz, -1, CHOLMOD_REAL, &cc);
         rhs_base = dtx_alloc((size_t)nfree, 3 * sizeof *rhs_base, 1);
@@ -309,17 +342,18 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
         for (int64_t p = 0; p < nadj; p++) {
             term t;
             t.n = 0;
-            triangle_term(src->F, nv, adj[2 * p], Vinv, &t, 1.0);
-            triangle_term(src->F, nv, adj[2 * p + 1], Vinv, &t, -1.0);
+            triangle_term(F, nv, adj[2 * p], Vinv, &t, 1.0);
+            triangle_term(F, nv, adj[2 * p + 1], Vinv, &t, -1.0);
             assemble_term(&as, &t, NULL, prm->w_smooth);
         }
         for (int32_t f = 0; f < nf; f++) {
             static const double I3[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
             term t;
             t.n = 0;
-            triangle_term(src->F, nv, f, Vinv, &t, 1.0);
+            triangle_term(F, nv, f, Vinv, &t, 1.0);
             assemble_term(&as, &t, I3, prm->w_identity);
         }
+        assemble_tets(&as, tets, ntetpairs, prm);
         /* Explicit zero diagonal entries for vertex unknowns, so the pattern
          * already holds the closest-point term's diagonal. */
         for (int32_t v = 0; v < nv; v++)
@@ -363,7 +397,7 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
         memcpy(Bx, rhs_base, (size_t)nfree * 3 * sizeof *Bx);
         if (wc > 0.0) {
             /* Closest valid points of the current deformed source. */
-            dtx_vertex_normals(X, nv, src->F, nf, vn);
+            dtx_vertex_normals(X, nv, F, nf, vn);
 #pragma omp parallel for schedule(static)
             for (int32_t v = 0; v < nv; v++) {
                 normal_filter_ctx ctx;
@@ -398,6 +432,8 @@ static dtx_status deform_source(const dtx_mesh *src, const double *S0, const dou
         if (!Xs)
             goto nomem;
         (*solves)++;
+        if (valid_out)
+            memcpy(valid_out, valid, (size_t)nv);
         for (int32_t v = 0; v < nv; v++)
             for (int c = 0; c < 3; c++)
                 X[3 * (size_t)v + c] = freeidx[v] >= 0
@@ -584,6 +620,62 @@ fail:
 }
 
 /* ------------------------------------------------------------------ */
+/* Common frame of both meshes                                         */
+/* ------------------------------------------------------------------ */
+
+dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
+                               const dtx_markers *markers, int align, double *S0, double *Tn,
+                               double center[3], double *diag_out, dtx_error *err)
+{
+    double lo[3], hi[3], diag;
+    memcpy(S0, src->V, (size_t)src->nv * 3 * sizeof *S0);
+    /* Similarity pre-alignment on the markers (needs 3 non-collinear ones). */
+    if (align && markers->n >= 3) {
+        double R[9], t[3], s;
+        double *P = dtx_alloc((size_t)markers->n, 3 * sizeof *P, 0);
+        double *Q = dtx_alloc((size_t)markers->n, 3 * sizeof *Q, 0);
+        if (!P || !Q) {
+            free(P);
+            free(Q);
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+        }
+        for (int32_t m = 0; m < markers->n; m++) {
+            memcpy(P + 3 * m, src->V + 3 * (size_t)markers->src[m], 3 * sizeof *P);
+            memcpy(Q + 3 * m, tgt->V + 3 * (size_t)markers->tgt[m], 3 * sizeof *Q);
+        }
+        if (dtx_similarity_fit(P, Q, markers->n, R, t, &s, NULL) == DTX_OK && s > 0.0)
+            dtx_similarity_apply(R, t, s, S0, src->nv);
+        free(P);
+        free(Q);
+    }
+
+    /* Normalise: target bounding box centred at the origin, unit diagonal. */
+    for (int k = 0; k < 3; k++) {
+        lo[k] = INFINITY;
+        hi[k] = -INFINITY;
+    }
+    for (int32_t i = 0; i < tgt->nv; i++)
+        for (int k = 0; k < 3; k++) {
+            double x = tgt->V[3 * (size_t)i + k];
+            lo[k] = x < lo[k] ? x : lo[k];
+            hi[k] = x > hi[k] ? x : hi[k];
+        }
+    for (int k = 0; k < 3; k++)
+        center[k] = 0.5 * (lo[k] + hi[k]);
+    diag = dtx_bbox_diagonal(tgt->V, tgt->nv);
+    if (!(diag > 0.0))
+        return dtx_seterr(err, DTX_EMESH, "target mesh has zero extent");
+    for (int32_t i = 0; i < tgt->nv; i++)
+        for (int k = 0; k < 3; k++)
+            Tn[3 * (size_t)i + k] = (tgt->V[3 * (size_t)i + k] - center[k]) / diag;
+    for (int32_t i = 0; i < src->nv; i++)
+        for (int k = 0; k < 3; k++)
+            S0[3 * (size_t)i + k] = (S0[3 * (size_t)i + k] - center[k]) / diag;
+    *diag_out = diag;
+    return DTX_OK;
+}
+
+/* ------------------------------------------------------------------ */
 /* Entry point                                                         */
 /* ------------------------------------------------------------------ */
 
@@ -592,8 +684,8 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
                                dtx_corr *out, dtx_error *err)
 {
     dtx_status st;
-    double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL, *P = NULL, *Q = NULL;
-    double center[3] = {0, 0, 0}, diag, lo[3], hi[3];
+    double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL;
+    double center[3] = {0, 0, 0}, diag = 1.0;
     dtx_bvh *tbvh = NULL;
     memset(out, 0, sizeof *out);
 
@@ -612,49 +704,9 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
         goto fail;
     }
-    memcpy(S0, src->V, (size_t)src->nv * 3 * sizeof *S0);
-
-    /* Similarity pre-alignment on the markers (needs 3 non-collinear ones). */
-    if (prm->align && markers->n >= 3) {
-        double R[9], t[3], s;
-        P = dtx_alloc((size_t)markers->n, 3 * sizeof *P, 0);
-        Q = dtx_alloc((size_t)markers->n, 3 * sizeof *Q, 0);
-        if (!P || !Q) {
-            st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
-            goto fail;
-        }
-        for (int32_t m = 0; m < markers->n; m++) {
-            memcpy(P + 3 * m, src->V + 3 * (size_t)markers->src[m], 3 * sizeof *P);
-            memcpy(Q + 3 * m, tgt->V + 3 * (size_t)markers->tgt[m], 3 * sizeof *Q);
-        }
-        if (dtx_similarity_fit(P, Q, markers->n, R, t, &s, NULL) == DTX_OK && s > 0.0)
-            dtx_similarity_apply(R, t, s, S0, src->nv);
-    }
-
-    /* Normalise: target bounding box centred at the origin, unit diagonal. */
-    for (int k = 0; k < 3; k++) {
-        lo[k] = INFINITY;
-        hi[k] = -INFINITY;
-    }
-    for (int32_t i = 0; i < tgt->nv; i++)
-        for (int k = 0; k < 3; k++) {
-            double x = tgt->V[3 * (size_t)i + k];
-            lo[k] = x < lo[k] ? x : lo[k];
-            hi[k] = x > hi[k] ? x : hi[k];
-        }
-    for (int k = 0; k < 3; k++)
-        center[k] = 0.5 * (lo[k] + hi[k]);
-    diag = dtx_bbox_diagonal(tgt->V, tgt->nv);
-    if (!(diag > 0.0)) {
-        st = dtx_seterr(err, DTX_EMESH, "target mesh has zero extent");
+    st = dtx__corr_normalise(src, tgt, markers, prm->align, S0, Tn, center, &diag, err);
+    if (st != DTX_OK)
         goto fail;
-    }
-    for (int32_t i = 0; i < tgt->nv; i++)
-        for (int k = 0; k < 3; k++)
-            Tn[3 * (size_t)i + k] = (tgt->V[3 * (size_t)i + k] - center[k]) / diag;
-    for (int32_t i = 0; i < src->nv; i++)
-        for (int k = 0; k < 3; k++)
-            S0[3 * (size_t)i + k] = (S0[3 * (size_t)i + k] - center[k]) / diag;
     memcpy(X, S0, (size_t)src->nv * 3 * sizeof *X);
 
     dtx_face_normals(Tn, tgt->F, tgt->nf, tnormals);
@@ -663,7 +715,25 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
         goto fail;
     }
-    st = deform_source(src, S0, Tn, tbvh, tnormals, markers, prm, X, &out->solves, err);
+    {
+        /* Marker vertices are fixed at their target positions. */
+        int32_t *fixv = dtx_alloc((size_t)markers->n, sizeof *fixv, 0);
+        double *fixpos = dtx_alloc((size_t)markers->n, 3 * sizeof *fixpos, 0);
+        if (!fixv || !fixpos) {
+            free(fixv);
+            free(fixpos);
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+            goto fail;
+        }
+        for (int32_t m = 0; m < markers->n; m++) {
+            fixv[m] = markers->src[m];
+            memcpy(fixpos + 3 * (size_t)m, Tn + 3 * (size_t)markers->tgt[m], 3 * sizeof *fixpos);
+        }
+        st = dtx__deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
+                              tbvh, tnormals, prm, X, NULL, &out->solves, err);
+        free(fixv);
+        free(fixpos);
+    }
     if (st != DTX_OK)
         goto fail;
     st = pair_triangles(src, X, tgt, Tn, prm, out, err);
@@ -704,7 +774,5 @@ fail:
     free(Tn);
     free(X);
     free(tnormals);
-    free(P);
-    free(Q);
     return st;
 }

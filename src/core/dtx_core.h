@@ -110,9 +110,14 @@ typedef struct {
     int64_t npairs;
     int32_t *pairs;        /* npairs x 2: (source triangle, target triangle), owned;
                               sorted by target triangle then source triangle */
-    double *deformed_src;  /* nv_s x 3: the source deformed onto the target, owned */
+    double *deformed_src;  /* nv_s x 3: the source deformed onto the target, owned
+                              (sp04; NULL from dtx_mc_correspond) */
     int32_t nv_src;
-    int32_t unmatched_tgt; /* target triangles that needed a fallback pairing */
+    double *deformed_tgt;  /* nv_t x 3: the target deformed into the source, owned
+                              (dtx_mc_correspond; NULL from sp04) */
+    int32_t nv_tgt;
+    int32_t unmatched_tgt; /* sp04: target triangles that needed a fallback pairing;
+                              multicomponent: orphan target triangles (in no pair) */
     int solves;            /* linear solves done */
     double fit_rms;        /* RMS distance (fraction of target diagonal) of the
                               deformed source vertices to the target surface */
@@ -127,6 +132,20 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
                                const dtx_markers *markers, const dtx_corr_params *params,
                                dtx_corr *out, dtx_error *err);
 void dtx_corr_free(dtx_corr *c);
+
+/* Zhou et al. 2010, section 2.2 (correspondence_mc.c): deforms the target
+ * into the source (markers, E_S, E_I, closest valid points on the source,
+ * and E_R over the target's proximity pairs, built with eps_factor as in
+ * proximity.h), then pairs each target triangle that touches a marker or a
+ * vertex with a valid closest point with the source triangle of nearest
+ * barycenter; the other target triangles stay unpaired (orphans, counted
+ * in unmatched_tgt).  out->deformed_tgt gets the deformed target,
+ * deformed_src stays NULL; fit_rms is the RMS distance of the deformed
+ * target to the source surface.  Same parameters as dtx_sp04_correspond;
+ * deterministic for any thread count. */
+dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
+                             const dtx_markers *markers, const dtx_corr_params *params,
+                             double eps_factor, dtx_corr *out, dtx_error *err);
 
 /* ------------------------------------------------------------------ */
 /* Sumner-Popovic transfer (transfer_sp04.c)                           */
@@ -207,5 +226,63 @@ int dtx_sp04_plan_use_avx2(dtx_sp04_plan *plan, int on);
 
 /* Seconds the factorisation took (analyze + factorize). */
 double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);
+
+/* ------------------------------------------------------------------ */
+/* Multi-component transfer (transfer_mc.c; Zhou et al. 2010, 2.3)     */
+/* ------------------------------------------------------------------ */
+
+typedef struct {
+    double w_match;     /* E1, matched gradients [1] */
+    double w_orphan;    /* E2, orphan-triangle smoothness over one-rings [1] */
+    double w_proximity; /* E3, proximity-pair lengths kept [0.1] */
+    double w_laplacian; /* E4, Laplacian-coordinate lengths of orphan components [1] */
+    double eps_factor;  /* proximity threshold: this x a component's longest edge [1.5] */
+    int max_iter;       /* Gauss-Newton iterations per frame at most [30] */
+    double tol;         /* stop when no vertex moves more than this x the
+                           target's bounding-box diagonal [1e-6] */
+} dtx_mc_params;
+
+/* The paper's values. */
+void dtx_mc_params_default(dtx_mc_params *p);
+
+/* What a plan found in the target (for summaries). */
+typedef struct {
+    int32_t components;        /* connected components (vertices in faces) */
+    int32_t proximity_edges;   /* edges of the proximity graph */
+    int64_t proximity_pairs;   /* vertex pairs whose distances E3 keeps */
+    int32_t orphan_triangles;  /* target triangles in no pair */
+    int32_t orphan_components; /* components with no paired triangle */
+    double factor_seconds;     /* analyse + factorise */
+} dtx_mc_info;
+
+typedef struct dtx_mc_plan dtx_mc_plan;
+
+/* Precompute: the target's proximity graph (proximity.h), the orphan
+ * triangles and components implied by pairs (npairs x 2, source triangle,
+ * target triangle; a target triangle in no pair is an orphan), and the
+ * factorisation of the Gauss-Newton matrix, which is the same for every
+ * iteration and frame.  anchor, pins, pin_pos, npins as for
+ * dtx_sp04_plan_create.  Any number of components (one included: with every
+ * triangle paired the result is sp04's).  Fails with DTX_EINVAL (params),
+ * DTX_ERANGE (pairs, pins), DTX_ESOLVE (a vertex no term reaches),
+ * DTX_ENOMEM.  The plan copies what it needs. */
+dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const int32_t *pairs,
+                              int64_t npairs, const dtx_mc_params *prm, dtx_anchor anchor,
+                              const int32_t *pins, const double *pin_pos, int32_t npins,
+                              dtx_mc_plan **plan, dtx_error *err);
+void dtx_mc_plan_free(dtx_mc_plan **plan);
+void dtx_mc_plan_info(const dtx_mc_plan *plan, dtx_mc_info *info);
+int32_t dtx_mc_plan_nv_src(const dtx_mc_plan *plan);
+int32_t dtx_mc_plan_nv_tgt(const dtx_mc_plan *plan);
+
+/* Apply: as dtx_sp04_apply (Xs: nframes x nv_s x 3 in, Xt: nframes x nv_t x
+ * 3 out, residual: nframes or NULL, sqrt(E / npairs) of the final iterate
+ * with E the whole energy, NaN for a non-finite frame), plus iterations
+ * (nframes or NULL): the Gauss-Newton iterations each frame took.  OpenMP
+ * threads take whole frames; a frame's result does not depend on the thread
+ * count or the split into calls.  Fails only with DTX_ENOMEM.  Not
+ * thread-safe on one plan. */
+dtx_status dtx_mc_apply(dtx_mc_plan *plan, int64_t nframes, const double *Xs, double *Xt,
+                        double *residual, int32_t *iterations, dtx_error *err);
 
 #endif /* DTX_CORE_H */

@@ -1,0 +1,44 @@
+/*
+ * correspondence_internal.h: what the two correspondence algorithms share
+ * (correspondence.c, Sumner & Popovic; correspondence_mc.c, Zhou et al.).
+ * Not part of the public API.
+ */
+#ifndef DTX_CORRESPONDENCE_INTERNAL_H
+#define DTX_CORRESPONDENCE_INTERNAL_H
+
+#include "dtx_core.h"
+
+/* A tetrahedron over four unknowns (vertex v, or nv + f for the fourth
+ * vertex of triangle f) whose transformation is T = [x1-x0, x2-x0, x3-x0]
+ * inv, inv the inverse of the same matrix at rest (row-major). */
+typedef struct {
+    int32_t var[4];
+    double inv[9];
+} dtx__tet;
+
+/* Puts the source S0 (nv_s x 3, caller-allocated) and the target Tn (nv_t x
+ * 3) into one frame: the source aligned on the markers by a similarity
+ * transform when align != 0 and there are at least 3 markers, then both
+ * mapped so that the target's bounding box is centred at the origin with a
+ * unit diagonal (center and diag returned, to map back). */
+dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
+                               const dtx_markers *markers, int align, double *S0, double *Tn,
+                               double center[3], double *diag, dtx_error *err);
+
+/* Deforms the mesh (F, nv, nf) with rest positions S0 toward the surface in
+ * tbvh (triangles, with face normals tnormals): minimises w_S E_S + w_I E_I
+ * + w_C E_C over the vertices and one fourth vertex per triangle, the nfix
+ * vertices fixv held at fixpos (nfix x 3), plus for each of the ntetpairs
+ * pairs (tets[2k], tets[2k+1]) the terms w_S |Ta - Tb|^2 + w_I |Ta - I|^2 +
+ * w_I |Tb - I|^2 (Zhou et al.'s E_R; NULL, 0 for none).  Phases as in the
+ * file comment of correspondence.c.  X (nv x 3, in: the start, normally
+ * S0; out: the result); valid_out (nv, may be NULL): 1 for the vertices
+ * that had a valid closest point in the last phase; *solves counts the
+ * solves. */
+dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                            const int32_t *fixv, const double *fixpos, int32_t nfix,
+                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                            const double *tnormals, const dtx_corr_params *prm, double *X,
+                            unsigned char *valid_out, int *solves, dtx_error *err);
+
+#endif /* DTX_CORRESPONDENCE_INTERNAL_H */
