@@ -314,19 +314,23 @@ static void corr_params_from_job(const dtx_job *job, dtx_corr_params *p)
 /* Broadcast of a correspondence from root (the other ranks allocate). */
 static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s, dtx_error *err)
 {
-    int rank;
+    int rank, has_def = c->deformed_src != NULL;
     long long np = c->npairs;
     int ok = 1;
     MPI_Comm_rank(comm, &rank);
     MPI_Bcast(&np, 1, MPI_LONG_LONG, root, comm);
+    /* The multicomponent correspondence deforms the target instead; the
+     * transfer needs only the pairs. */
+    MPI_Bcast(&has_def, 1, MPI_INT, root, comm);
     if (rank != root) {
         dtx_corr_free(c);
         memset(c, 0, sizeof *c);
         c->npairs = np;
         c->nv_src = nv_s;
         c->pairs = dtx_alloc((size_t)np, 2 * sizeof *c->pairs, 0);
-        c->deformed_src = dtx_alloc((size_t)nv_s, 3 * sizeof *c->deformed_src, 0);
-        ok = c->pairs && c->deformed_src;
+        c->deformed_src =
+            has_def ? dtx_alloc((size_t)nv_s, 3 * sizeof *c->deformed_src, 0) : NULL;
+        ok = c->pairs && (c->deformed_src || !has_def);
     }
     if (agree(comm, ok ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory"), err) != DTX_OK)
         return err->code;
@@ -335,7 +339,8 @@ static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s,
         long long n = 2 * np - off < (1 << 30) ? 2 * np - off : (1 << 30);
         MPI_Bcast(c->pairs + off, (int)n, MPI_INT32_T, root, comm);
     }
-    MPI_Bcast(c->deformed_src, 3 * nv_s, MPI_DOUBLE, root, comm);
+    if (has_def)
+        MPI_Bcast(c->deformed_src, 3 * nv_s, MPI_DOUBLE, root, comm);
     return DTX_OK;
 }
 
@@ -353,8 +358,11 @@ static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_er
     memset(job, 0, sizeof *job);
     if (rank == 0) {
         st = dtx_job_load(path, job, err);
-        if (st == DTX_OK && job->method != DTX_METHOD_SP04)
-            st = dtx_seterr(err, DTX_EJOB, "%s: /method: this build of dtx runs method sp04 only",
+        if (st == DTX_OK && job->method != DTX_METHOD_SP04 &&
+            job->method != DTX_METHOD_MULTICOMPONENT)
+            st = dtx_seterr(err, DTX_EJOB,
+                            "%s: /method: this build of dtx runs methods sp04 and multicomponent "
+                            "only",
                             path);
         if (st == DTX_OK)
             len = (long long)strlen(job->text);
@@ -508,12 +516,11 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
                  "; %d of its vertices sit at the position of another vertex (vertices %d and "
                  "%d first): split along seams? weld them",
                  (int)rep.duplicate_positions, (int)rep.dup_vertex[0], (int)rep.dup_vertex[1]);
-    if (is_target && rep.components > 1)
+    if (is_target && rep.components > 1 && r->job.method != DTX_METHOD_MULTICOMPONENT)
         return dtx_seterr(err, DTX_EMESH,
                           "%s:%s: the target mesh has %d connected components (vertex %d is not "
                           "connected to vertex %d) and method sp04 needs one (separate pieces "
-                          "need method \"multicomponent\", not in this build yet, or one "
-                          "target per piece)%s",
+                          "need method \"multicomponent\", or one target per piece)%s",
                           file, path, (int)rep.components, (int)rep.other_component,
                           (int)m->F[0], seams);
     if (dtx_mesh_report_notes(&rep, notes, sizeof notes) > 0)
@@ -756,7 +763,7 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     }
     /* The partial of an interrupted run holds correspondences too, even
      * when it is discarded. */
-    if (r->rank == 0) {
+    if (r->rank == 0 && r->job.method == DTX_METHOD_SP04) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
@@ -770,7 +777,11 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
         ncomputed += !reused[t];
         if (reused[t] || tc->owner != r->rank)
             continue;
-        st = dtx_sp04_correspond(&r->src, &tc->mesh, &tc->mk, &prm, &tc->corr, err);
+        if (r->job.method == DTX_METHOD_MULTICOMPONENT)
+            st = dtx_mc_correspond(&r->src, &tc->mesh, &tc->mk, &prm, r->job.mc.eps_factor,
+                                   &tc->corr, err);
+        else
+            st = dtx_sp04_correspond(&r->src, &tc->mesh, &tc->mk, &prm, &tc->corr, err);
         if (st != DTX_OK)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tc->tj->name, tc->tj->file,
                              tc->tj->mesh);
@@ -830,7 +841,9 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         meta.markers = mkdesc;
         meta.parameters = params;
         st = dtx_h5_write_mesh(r->out, tc->mesh_path, &tc->mesh, tgtdesc, err);
-        if (st == DTX_OK)
+        /* Only sp04's correspondence has a place in the layout (with its
+         * deformed source); the multicomponent one is recomputed per run. */
+        if (st == DTX_OK && tc->corr.deformed_src)
             st = dtx_h5_write_corr(r->out, tc->corr_path, tc->corr.pairs, tc->corr.npairs,
                                    tc->corr.deformed_src, r->src.nv, &meta, err);
         for (int s = 0; s < r->ns && st == DTX_OK; s++) {
@@ -839,12 +852,13 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             dtx_h5_provenance prov;
             snprintf(res_path, sizeof res_path, "/results/%s/%s", tj->name, r->sq[s].name);
             snprintf(seqdesc, sizeof seqdesc, "%s:%s", r->job.source_file, r->sq[s].path);
-            prov.method = "sp04";
+            prov.method =
+                r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent" : "sp04";
             prov.job = r->job.text;
             prov.parameters = params;
             prov.source_sequence = seqdesc;
             prov.target_mesh = tc->mesh_path;
-            prov.correspondence = tc->corr_path;
+            prov.correspondence = tc->corr.deformed_src ? tc->corr_path : "";
             st = dtx_h5_result_create(r->out, res_path, &prov, r->sq[s].seq.nframes,
                                       tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
                                       DTX_FRAME_ALIGN, 0, &rc->res, err);
@@ -1023,7 +1037,21 @@ static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int
 /* Transfers the frames of result (t, s) not yet done, each rank its share,
  * in blocks; with collective I/O every rank makes the same number of
  * writes (ranks without frames write nothing). */
-static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *plan,
+/* The factored transfer of one target, by method. */
+typedef struct {
+    dtx_sp04_plan *sp04;
+    dtx_mc_plan *mc;
+} plan_ref;
+
+static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
+                             double *res, dtx_error *err)
+{
+    if (p->mc)
+        return dtx_mc_apply(p->mc, n, Xs, Xt, res, NULL, err);
+    return dtx_sp04_apply(p->sp04, n, Xs, Xt, res, err);
+}
+
+static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *plan,
                                   frame_buffers *fb, dtx_error *err)
 {
     result_ctx *rc = RESULT(r, t, s);
@@ -1070,7 +1098,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, dtx_sp04_plan *pla
         st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
         t1 = wtime();
         if (st == DTX_OK && n > 0)
-            st = dtx_sp04_apply(plan, n, fb->Xs, fb->Xt, fb->res, err);
+            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, err);
         if (st == DTX_OK && k == nseg_max / 2)
             st = injected_fault(r, "transfer", err);
         t2 = wtime();
@@ -1153,7 +1181,8 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt; t++) {
         target_ctx *tc = &r->tg[t];
         const dtx_job_target *tj = tc->tj;
-        dtx_sp04_plan *plan = NULL;
+        plan_ref plan = {NULL, NULL};
+        dtx_anchor anchor;
         int32_t *pin_idx = NULL;
         double *pin_pos = NULL, t0 = wtime();
         int needed = 0;
@@ -1171,12 +1200,26 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
                     memcpy(pin_pos + 3 * i, tj->pins[i].pos, 3 * sizeof *pin_pos);
                 }
         }
-        st = dtx_sp04_plan_create(
-            &r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs,
-            tj->translation == DTX_TRANSLATION_FOLLOW
-                ? DTX_ANCHOR_FOLLOW
-                : (tj->translation == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS : DTX_ANCHOR_FIXED),
-            pin_idx, pin_pos, tj->npins, &plan, err);
+        anchor = tj->translation == DTX_TRANSLATION_FOLLOW
+                     ? DTX_ANCHOR_FOLLOW
+                     : (tj->translation == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS
+                                                                : DTX_ANCHOR_FIXED);
+        if (r->job.method == DTX_METHOD_MULTICOMPONENT) {
+            dtx_mc_params mp;
+            dtx_mc_params_default(&mp);
+            mp.w_match = r->job.mc.w_match;
+            mp.w_orphan = r->job.mc.w_orphan;
+            mp.w_proximity = r->job.mc.w_proximity;
+            mp.w_laplacian = r->job.mc.w_laplacian;
+            mp.eps_factor = r->job.mc.eps_factor;
+            mp.max_iter = r->job.mc.max_iter;
+            mp.tol = r->job.mc.tol;
+            st = dtx_mc_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, &mp,
+                                    anchor, pin_idx, pin_pos, tj->npins, &plan.mc, err);
+        } else {
+            st = dtx_sp04_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, anchor,
+                                      pin_idx, pin_pos, tj->npins, &plan.sp04, err);
+        }
         if (st != DTX_OK)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tj->name, tj->file, tj->mesh);
         free(pin_idx);
@@ -1186,8 +1229,9 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             goto done;
         for (int s = 0; s < r->ns && st == DTX_OK; s++)
             if (!RESULT(r, t, s)->finished)
-                st = transfer_result(r, t, s, plan, &fb, err);
-        dtx_sp04_plan_free(&plan);
+                st = transfer_result(r, t, s, &plan, &fb, err);
+        dtx_sp04_plan_free(&plan.sp04);
+        dtx_mc_plan_free(&plan.mc);
         if (st != DTX_OK)
             goto done;
     }

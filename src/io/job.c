@@ -462,7 +462,7 @@ static dtx_status fill_target(fillctx *f, const cJSON *t, int index, dtx_job_tar
 static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 {
     const cJSON *src = get(doc, "source"), *tgts = get(doc, "targets"), *out = get(doc, "output");
-    const cJSON *sp = get(doc, "sp04"), *x;
+    const cJSON *sp = get(doc, "sp04"), *mc = get(doc, "multicomponent"), *x;
     dtx_status st;
     int i, m;
 
@@ -539,6 +539,35 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
                     job->sp04.w_closest[job->sp04.n_closest++] = w->valuedouble;
             }
         }
+    }
+
+    /* ---- multicomponent parameters (defaults from the core) ---- */
+    {
+        dtx_mc_params d;
+        dtx_mc_params_default(&d);
+        job->mc.w_match = d.w_match;
+        job->mc.w_orphan = d.w_orphan;
+        job->mc.w_proximity = d.w_proximity;
+        job->mc.w_laplacian = d.w_laplacian;
+        job->mc.eps_factor = d.eps_factor;
+        job->mc.max_iter = d.max_iter;
+        job->mc.tol = d.tol;
+    }
+    if (mc) {
+        if (cJSON_IsNumber(x = get(mc, "w_match")))
+            job->mc.w_match = x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "w_orphan")))
+            job->mc.w_orphan = x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "w_proximity")))
+            job->mc.w_proximity = x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "w_laplacian")))
+            job->mc.w_laplacian = x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "eps_factor")))
+            job->mc.eps_factor = x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "max_iter")))
+            job->mc.max_iter = (int)x->valuedouble;
+        if (cJSON_IsNumber(x = get(mc, "tol")))
+            job->mc.tol = x->valuedouble;
     }
     return DTX_OK;
 }
@@ -1046,7 +1075,15 @@ char *dtx_job_params_json(const dtx_job *job)
         return NULL;
     method = method_names[job->method];
     sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
-    if (job->method == DTX_METHOD_SP04) {
+    if (job->method == DTX_METHOD_MULTICOMPONENT) {
+        const dtx_mc_job_params *q = &job->mc;
+        sb_printf(&b,
+                  "{\"eps_factor\":%.17g,\"max_iter\":%d,\"tol\":%.17g,\"w_laplacian\":%.17g,"
+                  "\"w_match\":%.17g,\"w_orphan\":%.17g,\"w_proximity\":%.17g},\"sp04\":",
+                  q->eps_factor, q->max_iter, q->tol, q->w_laplacian, q->w_match, q->w_orphan,
+                  q->w_proximity);
+    }
+    if (job->method == DTX_METHOD_SP04 || job->method == DTX_METHOD_MULTICOMPONENT) {
         const dtx_sp04_params *p = &job->sp04;
         int i;
         sb_printf(&b, "{\"max_angle_deg\":%.17g,\"max_distance\":%.17g,\"w_closest\":[",

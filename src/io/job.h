@@ -80,6 +80,12 @@ typedef struct {
     double max_angle_deg;  /* [90] normals must differ by less than this */
 } dtx_sp04_params;
 
+/* multicomponent transfer parameters (defaults: dtx_mc_params_default). */
+typedef struct {
+    double w_match, w_orphan, w_proximity, w_laplacian, eps_factor, tol;
+    int max_iter;
+} dtx_mc_job_params;
+
 typedef struct {
     int version;          /* dtx_job */
     dtx_method method;
@@ -100,7 +106,8 @@ typedef struct {
     int32_t block_frames; /* [64] frames per block (read/solve/write unit) */
     int collective_io;    /* [0] frames written with collective MPI-IO (else independent) */
 
-    dtx_sp04_params sp04;
+    dtx_sp04_params sp04;  /* also the multicomponent correspondence's weights */
+    dtx_mc_job_params mc;
 } dtx_job;
 
 /* Reads, parses and validates the job at path.  On failure err->msg names
