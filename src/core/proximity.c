@@ -14,20 +14,23 @@
  *     skipped), each cluster takes its lightest outgoing edge and the
  *     clusters merge, at least halving their number per round.  A vertex's
  *     nearest foreign vertex stays the nearest until the two clusters merge
- *     (the foreign set only shrinks), so only those queries are redone.
+ *     (the foreign set only shrinks), so only those queries are redone, and
+ *     within a bound that the kept ones give their cluster.
  *  4. Graph edges: every graph edge has d_ab <= min(r_a, r_b), r_a = d_a +
  *     eps_a (tree edges too, since d_ab <= d_a), so a radius query of radius
  *     r_a from every vertex of component a, skipping nodes farther than
  *     every r_b below them, finds the closest vertex of every candidate
  *     component b > a.
- *  5. Pairs: from every vertex of a, a radius query against a's edges.
+ *  5. Pairs: for every edge (a, b) and every vertex of a near b's bounding
+ *     box, a radius query restricted to b.
  *
  * Steps 3-5 run on OpenMP threads over vertices or components.  Every
- * result is the minimum under a strict total order or a set, and the
- * outputs are sorted, so the bits do not depend on the thread count.
- * Records of unknown number go to per-thread buffers allocated before each
- * parallel loop; a component whose records do not fit is done again after
- * the full buffers have been grown.
+ * result is the minimum under a strict total order or a set, so the bits do
+ * not depend on the thread count.  Steps 4 and 5 write each component's
+ * records, already in output order, into per-thread buffers allocated
+ * before the parallel loop; the output is the components' records in
+ * component order.  A component whose records do not fit is done again
+ * after the full buffers have been grown.
  *
  * The searches compare squared distances against r^2 enlarged by a relative
  * 1e-12, so they never drop a candidate to rounding; the rules themselves
@@ -42,8 +45,8 @@
 #include <omp.h>
 #endif
 
-#define KD_LEAF 8     /* a node with more points is split */
-#define KD_STACK 192  /* traversal stack; the depth is below 34 for 2^31 points */
+#define KD_LEAF 8    /* a node with more points is split */
+#define KD_STACK 192 /* traversal stack; the depth is below 34 for 2^31 points */
 
 static int max_threads(void)
 {
@@ -73,10 +76,7 @@ static inline double dist2(const double *p, const double *q)
 
 /* A search bound for squared distances that is safe against the rounding
  * of sqrt: sqrt(d2) <= r implies d2 <= search2(r). */
-static inline double search2(double r)
-{
-    return r * r * (1.0 + 1e-12);
-}
+static inline double search2(double r) { return r * r * (1.0 + 1e-12); }
 
 static int32_t uf_find(int32_t *parent, int32_t i)
 {
@@ -94,18 +94,23 @@ static int32_t uf_find(int32_t *parent, int32_t i)
 static dtx_status check_mesh(const dtx_mesh *m, dtx_error *err)
 {
     if (m->nv < 0 || m->nf < 0 || (m->nv > 0 && !m->V) || (m->nf > 0 && !m->F))
-        return dtx_seterr(err, DTX_EINVAL, "proximity: mesh with %d vertices and %d faces "
-                          "has missing or negative arrays", (int)m->nv, (int)m->nf);
+        return dtx_seterr(err, DTX_EINVAL,
+                          "proximity: mesh with %d vertices and %d faces "
+                          "has missing or negative arrays",
+                          (int)m->nv, (int)m->nf);
     for (int32_t f = 0; f < m->nf; f++)
         for (int k = 0; k < 3; k++) {
             int32_t v = m->F[3 * f + k];
             if (v < 0 || v >= m->nv)
-                return dtx_seterr(err, DTX_ERANGE, "proximity: face %d (0-based) has vertex "
-                                  "index %d out of range [0, %d)", (int)f, (int)v, (int)m->nv);
-            if (!isfinite(m->V[3 * v]) || !isfinite(m->V[3 * v + 1]) ||
-                !isfinite(m->V[3 * v + 2]))
-                return dtx_seterr(err, DTX_ENONFINITE, "proximity: vertex %d (0-based, in "
-                                  "face %d) has a non-finite coordinate", (int)v, (int)f);
+                return dtx_seterr(err, DTX_ERANGE,
+                                  "proximity: face %d (0-based) has vertex "
+                                  "index %d out of range [0, %d)",
+                                  (int)f, (int)v, (int)m->nv);
+            if (!isfinite(m->V[3 * v]) || !isfinite(m->V[3 * v + 1]) || !isfinite(m->V[3 * v + 2]))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "proximity: vertex %d (0-based, in "
+                                  "face %d) has a non-finite coordinate",
+                                  (int)v, (int)f);
         }
     return DTX_OK;
 }
@@ -156,8 +161,8 @@ static int32_t label_components(const dtx_mesh *m, int32_t *comp)
 }
 
 /* eps[c] = eps_factor x the longest edge of component c. */
-static void component_eps(const dtx_mesh *m, const int32_t *comp, double eps_factor,
-                          int32_t ncomp, double *eps)
+static void component_eps(const dtx_mesh *m, const int32_t *comp, double eps_factor, int32_t ncomp,
+                          double *eps)
 {
     for (int32_t c = 0; c < ncomp; c++)
         eps[c] = 0.0;
@@ -329,7 +334,8 @@ static inline double box_d2(const kd_node *nd, const double *p)
 {
     double d2 = 0.0;
     for (int k = 0; k < 3; k++) {
-        double d = p[k] < nd->lo[k] ? nd->lo[k] - p[k] : (p[k] > nd->hi[k] ? p[k] - nd->hi[k] : 0.0);
+        double d =
+            p[k] < nd->lo[k] ? nd->lo[k] - p[k] : (p[k] > nd->hi[k] ? p[k] - nd->hi[k] : 0.0);
         d2 += d * d;
     }
     return d2;
@@ -357,8 +363,8 @@ static inline void push_children(const kd_tree *t, const kd_node *nd, const doub
  * those with d2 <= bound: the minimum of (d2, component, vertex).  lab: per
  * node, the one cluster of its points or -1.  Returns its tree index and d2
  * (-1 if there is none within the bound). */
-static int32_t nn_foreign(const kd_tree *t, const int32_t *pcl, const int32_t *lab,
-                          const double *p, int32_t cl, double bound, double *d2out)
+static int32_t nn_foreign(const kd_tree *t, const int32_t *pcl, const int32_t *lab, const double *p,
+                          int32_t cl, double bound, double *d2out)
 {
     int32_t stack[KD_STACK];
     int sp = 0;
@@ -380,10 +386,9 @@ static int32_t nn_foreign(const kd_tree *t, const int32_t *pcl, const int32_t *l
                 continue;
             d2 = dist2(p, t->x + 3 * q);
             if (best < 0 ? d2 <= bd2
-                         : (d2 < bd2 ||
-                            (d2 == bd2 && (t->comp[q] < t->comp[best] ||
-                                           (t->comp[q] == t->comp[best] &&
-                                            t->vid[q] < t->vid[best]))))) {
+                         : (d2 < bd2 || (d2 == bd2 && (t->comp[q] < t->comp[best] ||
+                                                       (t->comp[q] == t->comp[best] &&
+                                                        t->vid[q] < t->vid[best]))))) {
                 best = q;
                 bd2 = d2;
             }
@@ -525,12 +530,13 @@ done:
 /* ------------------------------------------------------------------ */
 
 typedef struct {
-    int32_t a, b, i, j;
+    int32_t b, i, j; /* edge (a, b) of the task's component a, closest pair */
     double d2;
 } edge_rec;
 
 typedef struct {
     int32_t e, i, j;
+    double len;
 } pair_rec;
 
 /* A thread's output: records of `size` bytes; `full` once a push did not
@@ -551,12 +557,17 @@ static inline void tbuf_push(tbuf *b, const void *r)
     b->n++;
 }
 
+/* Where each component's records went: thread, first record, count. */
+typedef struct {
+    int32_t *tid;
+    size_t *off, *n;
+} chunks;
+
 /* A thread's scratch, indexed by component; kept clean between tasks. */
 typedef struct {
     double *bd2;      /* closest squared distance to each touched component */
     int32_t *bi, *bj; /* its vertex pair; bi = -1 when untouched */
     int32_t *touched;
-    int32_t *emap;    /* edge index of each neighbour, -1 otherwise */
 } scratch;
 
 typedef struct {
@@ -564,23 +575,37 @@ typedef struct {
     const double *V;
     int32_t ncomp;
     const int32_t *cstart, *cvert; /* vertices of each component, ascending */
+    const kd_node *cbox;           /* ncomp: bounding box of each component */
     /* Edge search. */
-    const double *r, *r2;          /* ncomp: d_a + eps_a and its search bound */
-    const double *node_r2;         /* nnodes: max r2 of the components below */
+    const double *r, *r2;  /* ncomp: d_a + eps_a and its search bound */
+    const double *node_r2; /* nnodes: max r2 of the components below */
     /* Pair search. */
-    const int32_t *estart;         /* ncomp + 1: edges with a as lower end */
-    const int32_t *eb, *ei, *ej;   /* nedges: b and closest pair */
-    const double *edist, *R, *R2;  /* nedges: d_ab, d_ab + min(eps_a, eps_b), bound */
+    const int32_t *estart;        /* ncomp + 1: edges with a as lower end */
+    const int32_t *eb, *ei, *ej;  /* nedges: b and closest pair */
+    const double *edist, *R, *R2; /* nedges: d_ab, d_ab + min(eps_a, eps_b), bound */
 } prox_ctx;
 
 typedef void (*comp_task)(const prox_ctx *c, int32_t a, scratch *s, tbuf *out);
 
-/* Candidate edges (a, b > a) with their closest pairs. */
+static int cmp_edge_b(const void *x, const void *y)
+{
+    const edge_rec *p = x, *q = y;
+    return p->b < q->b ? -1 : (p->b > q->b);
+}
+
+static int cmp_pair_j(const void *x, const void *y)
+{
+    const pair_rec *p = x, *q = y;
+    return p->j < q->j ? -1 : (p->j > q->j);
+}
+
+/* Candidate edges (a, b > a) with their closest pairs, sorted by b. */
 static void edge_task(const prox_ctx *c, int32_t a, scratch *s, tbuf *out)
 {
     const kd_tree *t = c->t;
     double ra2 = c->r2[a];
     int32_t ntouched = 0;
+    size_t mark = out->n;
     for (int32_t u = c->cstart[a]; u < c->cstart[a + 1]; u++) {
         int32_t i = c->cvert[u], stack[KD_STACK];
         const double *p = c->V + 3 * i;
@@ -626,78 +651,86 @@ static void edge_task(const prox_ctx *c, int32_t a, scratch *s, tbuf *out)
         int32_t b = s->touched[u];
         double d = sqrt(s->bd2[b]);
         if (d <= c->r[a] && d <= c->r[b]) {
-            edge_rec e = {a, b, s->bi[b], s->bj[b], s->bd2[b]};
+            edge_rec e = {b, s->bi[b], s->bj[b], s->bd2[b]};
             tbuf_push(out, &e);
         }
         s->bi[b] = -1;
     }
+    if (!out->full)
+        qsort(out->rec + mark * out->size, out->n - mark, out->size, cmp_edge_b);
 }
 
-/* Proximity pairs of the edges (a, b > a). */
+/* Proximity pairs of the edges (a, b > a), sorted by (edge, i, j): edges
+ * in order, for each the vertices i of a in order, for each a radius query
+ * restricted to b, whose hits are then sorted by j. */
 static void pair_task(const prox_ctx *c, int32_t a, scratch *s, tbuf *out)
 {
     const kd_tree *t = c->t;
-    int32_t e0 = c->estart[a], e1 = c->estart[a + 1];
-    double rmax2 = 0.0;
-    if (e0 == e1)
-        return;
-    for (int32_t e = e0; e < e1; e++) {
-        s->emap[c->eb[e]] = e;
-        rmax2 = c->R2[e] > rmax2 ? c->R2[e] : rmax2;
-    }
-    for (int32_t u = c->cstart[a]; u < c->cstart[a + 1] && !out->full; u++) {
-        int32_t i = c->cvert[u], stack[KD_STACK];
-        const double *p = c->V + 3 * i;
-        int sp = 0;
-        stack[sp++] = 0;
-        while (sp > 0) {
-            int32_t ni = stack[--sp];
-            const kd_node *nd = &t->node[ni];
-            double bd;
-            if (t->chi[ni] <= a)
-                continue;
-            bd = box_d2(nd, p);
-            if (bd > rmax2)
-                continue;
-            if (t->clo[ni] == t->chi[ni]) {
-                int32_t e = s->emap[t->clo[ni]];
-                if (e < 0 || bd > c->R2[e])
-                    continue;
+    (void)s;
+    for (int32_t e = c->estart[a]; e < c->estart[a + 1]; e++) {
+        int32_t b = c->eb[e];
+        double R = c->R[e], R2 = c->R2[e];
+        /* The closest pair when the radius rule does not take it (eps = 0). */
+        int closest_apart = !(c->edist[e] < R);
+        for (int32_t u = c->cstart[a]; u < c->cstart[a + 1]; u++) {
+            int32_t i = c->cvert[u], stack[KD_STACK];
+            const double *p = c->V + 3 * i;
+            size_t mark = out->n;
+            int sp = 0;
+            if (closest_apart && i == c->ei[e]) {
+                pair_rec rec = {e, i, c->ej[e], c->edist[e]};
+                tbuf_push(out, &rec);
             }
-            if (nd->count == 0) {
-                push_children(t, nd, p, stack, &sp);
+            if (box_d2(&c->cbox[b], p) > R2)
                 continue;
-            }
-            for (int32_t q = nd->first; q < nd->first + nd->count; q++) {
-                int32_t b = t->comp[q], e;
-                double d2;
-                if (b <= a || (e = s->emap[b]) < 0)
+            stack[sp++] = 0;
+            while (sp > 0) {
+                int32_t ni = stack[--sp];
+                const kd_node *nd = &t->node[ni];
+                if (t->clo[ni] > b || t->chi[ni] < b || box_d2(nd, p) > R2)
                     continue;
-                d2 = dist2(p, t->x + 3 * q);
-                if (d2 <= c->R2[e] && sqrt(d2) < c->R[e]) {
-                    pair_rec r = {e, i, t->vid[q]};
-                    tbuf_push(out, &r);
+                if (nd->count == 0) {
+                    push_children(t, nd, p, stack, &sp);
+                    continue;
+                }
+                for (int32_t q = nd->first; q < nd->first + nd->count; q++) {
+                    double d2, len;
+                    if (t->comp[q] != b)
+                        continue;
+                    d2 = dist2(p, t->x + 3 * q);
+                    if (d2 <= R2 && (len = sqrt(d2)) < R) {
+                        pair_rec rec = {e, i, t->vid[q], len};
+                        tbuf_push(out, &rec);
+                    }
+                }
+            }
+            if (out->full)
+                return;
+            /* Hits of one i: sort by j (insertion sort for short runs). */
+            if (out->n - mark > 32) {
+                qsort(out->rec + mark * out->size, out->n - mark, out->size, cmp_pair_j);
+            } else {
+                pair_rec *r = (pair_rec *)(void *)(out->rec + mark * out->size);
+                size_t k = out->n - mark;
+                for (size_t x = 1; x < k; x++) {
+                    pair_rec v = r[x];
+                    size_t y = x;
+                    for (; y > 0 && r[y - 1].j > v.j; y--)
+                        r[y] = r[y - 1];
+                    r[y] = v;
                 }
             }
         }
     }
-    /* The closest pair when the radius rule did not already take it
-     * (eps = 0). */
-    for (int32_t e = e0; e < e1; e++)
-        if (!(c->edist[e] < c->R[e])) {
-            pair_rec r = {e, c->ei[e], c->ej[e]};
-            tbuf_push(out, &r);
-        }
-    for (int32_t e = e0; e < e1; e++)
-        s->emap[c->eb[e]] = -1;
 }
 
 /* Runs task for every component on the OpenMP threads (nthreads buffers
- * and scratches).  A task that overflows its thread's buffer is dropped and
- * run again once the full buffers have doubled.  todo: ncomp, redo: ncomp
- * zeroed (both scratch). */
+ * and scratches) and notes where each component's records are.  A task
+ * that overflows its thread's buffer is dropped and run again once the full
+ * buffers have doubled.  todo: ncomp, redo: ncomp zeroed (both scratch). */
 static dtx_status run_tasks(const prox_ctx *c, comp_task task, scratch *scr, tbuf *buf,
-                            int nthreads, int32_t *todo, unsigned char *redo, dtx_error *err)
+                            int nthreads, int32_t *todo, unsigned char *redo, chunks *ch,
+                            dtx_error *err)
 {
     int32_t ntodo = c->ncomp;
     for (int32_t a = 0; a < c->ncomp; a++)
@@ -709,11 +742,16 @@ static dtx_status run_tasks(const prox_ctx *c, comp_task task, scratch *scr, tbu
             int tid = thread_num();
             tbuf *b = &buf[tid];
             size_t mark = b->n;
+            int32_t a = todo[k];
             if (!b->full)
-                task(c, todo[k], &scr[tid], b);
+                task(c, a, &scr[tid], b);
             if (b->full) {
                 b->n = mark;
-                redo[todo[k]] = 1;
+                redo[a] = 1;
+            } else {
+                ch->tid[a] = tid;
+                ch->off[a] = mark;
+                ch->n[a] = b->n - mark;
             }
         }
         for (int32_t k = 0; k < ntodo; k++)
@@ -729,8 +767,10 @@ static dtx_status run_tasks(const prox_ctx *c, comp_task task, scratch *scr, tbu
                         ? realloc(buf[th].rec, 2 * buf[th].cap * buf[th].size)
                         : NULL;
             if (!grown)
-                return dtx_seterr(err, DTX_ENOMEM, "proximity: cannot grow an output buffer "
-                                  "beyond %zu records", buf[th].cap);
+                return dtx_seterr(err, DTX_ENOMEM,
+                                  "proximity: cannot grow an output buffer "
+                                  "beyond %zu records",
+                                  buf[th].cap);
             buf[th].rec = grown;
             buf[th].cap *= 2;
             buf[th].full = 0;
@@ -766,40 +806,11 @@ static tbuf *tbufs_alloc(int nthreads, size_t size, size_t cap)
     return buf;
 }
 
-/* Concatenates the buffers into one array (n records; caller frees). */
-static void *tbufs_gather(const tbuf *buf, int nthreads, size_t size, size_t *n)
+/* The record of component a's chunk number k. */
+static inline const void *chunk_rec(const tbuf *buf, const chunks *ch, int32_t a, size_t k)
 {
-    unsigned char *all;
-    size_t total = 0, at = 0;
-    for (int th = 0; th < nthreads; th++)
-        total += buf[th].n;
-    if (!(all = dtx_alloc(total, size, 0)))
-        return NULL;
-    for (int th = 0; th < nthreads; th++) {
-        if (buf[th].n)
-            memcpy(all + at * size, buf[th].rec, buf[th].n * size);
-        at += buf[th].n;
-    }
-    *n = total;
-    return all;
-}
-
-static int cmp_edge(const void *x, const void *y)
-{
-    const edge_rec *p = x, *q = y;
-    if (p->a != q->a)
-        return p->a < q->a ? -1 : 1;
-    return p->b < q->b ? -1 : (p->b > q->b);
-}
-
-static int cmp_pair(const void *x, const void *y)
-{
-    const pair_rec *p = x, *q = y;
-    if (p->e != q->e)
-        return p->e < q->e ? -1 : 1;
-    if (p->i != q->i)
-        return p->i < q->i ? -1 : 1;
-    return p->j < q->j ? -1 : (p->j > q->j);
+    const tbuf *b = &buf[ch->tid[a]];
+    return b->rec + (ch->off[a] + k) * b->size;
 }
 
 static int cmp_int2(const void *x, const void *y)
@@ -830,18 +841,22 @@ void dtx_proximity_free(dtx_proximity *p)
     memset(p, 0, sizeof *p);
 }
 
-/* Edge and pair arrays of *out for nedges edges and npairs pairs. */
-static int alloc_graph(dtx_proximity *out, size_t nedges, size_t npairs)
+/* Edge arrays of *out for nedges edges, pair arrays for npairs pairs. */
+static int alloc_edges(dtx_proximity *out, size_t nedges)
 {
     out->edges = dtx_alloc(nedges, 2 * sizeof *out->edges, 0);
     out->edge_dist = dtx_alloc(nedges, sizeof *out->edge_dist, 0);
     out->in_tree = dtx_alloc(nedges, sizeof *out->in_tree, 1);
     out->edge_pair = dtx_alloc(nedges, 2 * sizeof *out->edge_pair, 0);
+    return out->edges && out->edge_dist && out->in_tree && out->edge_pair;
+}
+
+static int alloc_pairs(dtx_proximity *out, size_t npairs)
+{
     out->pairs = dtx_alloc(npairs, 2 * sizeof *out->pairs, 0);
     out->rest_len = dtx_alloc(npairs, sizeof *out->rest_len, 0);
     out->pair_edge = dtx_alloc(npairs, sizeof *out->pair_edge, 0);
-    return out->edges && out->edge_dist && out->in_tree && out->edge_pair && out->pairs &&
-           out->rest_len && out->pair_edge;
+    return out->pairs && out->rest_len && out->pair_edge;
 }
 
 dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximity *out,
@@ -853,13 +868,13 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
     int32_t *cstart = NULL, *cvert = NULL, *tree = NULL, *todo = NULL, *estart = NULL;
     int32_t *eb = NULL, *ei = NULL, *ej = NULL, *scr_int = NULL;
     double *tree_d2 = NULL, *r = NULL, *r2 = NULL, *node_r2 = NULL, *R = NULL, *R2 = NULL;
-    double *edist = NULL, *scr_dbl = NULL;
+    double *scr_dbl = NULL;
     unsigned char *redo = NULL;
+    kd_node *cbox = NULL;
     scratch *scr = NULL;
     tbuf *buf = NULL;
-    edge_rec *erec = NULL;
-    pair_rec *prec = NULL;
-    size_t nerec = 0, nprec = 0;
+    chunks ch = {NULL, NULL, NULL};
+    size_t total, at;
     kd_tree t = {0};
     prox_ctx ctx;
 
@@ -869,8 +884,10 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
     if (!m)
         return dtx_seterr(err, DTX_EINVAL, "proximity: no mesh given");
     if (!(eps_factor >= 0.0) || !isfinite(eps_factor))
-        return dtx_seterr(err, DTX_EINVAL, "proximity: eps_factor %g must be finite and >= 0 "
-                          "(the paper uses 1.5)", eps_factor);
+        return dtx_seterr(err, DTX_EINVAL,
+                          "proximity: eps_factor %g must be finite and >= 0 "
+                          "(the paper uses 1.5)",
+                          eps_factor);
     if ((st = check_mesh(m, err)) != DTX_OK)
         return st;
 
@@ -884,30 +901,43 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
         goto nomem;
     component_eps(m, out->comp, eps_factor, ncomp, out->eps);
     if (ncomp <= 1) {
-        if (!alloc_graph(out, 0, 0))
+        if (!alloc_edges(out, 0) || !alloc_pairs(out, 0))
             goto nomem;
         return DTX_OK;
     }
 
-    /* ---- Vertices of each component, ascending; the k-d tree. */
+    /* ---- Vertices and bounding box of each component; the k-d tree. */
     cstart = dtx_alloc((size_t)ncomp + 1, sizeof *cstart, 1);
-    if (!cstart)
+    cbox = dtx_alloc((size_t)ncomp, sizeof *cbox, 0);
+    todo = dtx_alloc((size_t)ncomp, sizeof *todo, 1);
+    if (!cstart || !cbox || !todo)
         goto nomem;
-    for (int32_t v = 0; v < m->nv; v++)
-        if (out->comp[v] >= 0) {
-            cstart[out->comp[v] + 1]++;
-            nin++;
+    for (int32_t c = 0; c < ncomp; c++)
+        for (int k = 0; k < 3; k++) {
+            cbox[c].lo[k] = INFINITY;
+            cbox[c].hi[k] = -INFINITY;
         }
+    for (int32_t v = 0; v < m->nv; v++) {
+        int32_t c = out->comp[v];
+        if (c < 0)
+            continue;
+        cstart[c + 1]++;
+        nin++;
+        for (int k = 0; k < 3; k++) {
+            double x = m->V[3 * v + k];
+            cbox[c].lo[k] = x < cbox[c].lo[k] ? x : cbox[c].lo[k];
+            cbox[c].hi[k] = x > cbox[c].hi[k] ? x : cbox[c].hi[k];
+        }
+    }
     for (int32_t c = 0; c < ncomp; c++)
         cstart[c + 1] += cstart[c];
-    if (!(cvert = dtx_alloc((size_t)nin, sizeof *cvert, 0)) ||
-        !(todo = dtx_alloc((size_t)ncomp, sizeof *todo, 1)))
+    if (!(cvert = dtx_alloc((size_t)nin, sizeof *cvert, 0)))
         goto nomem;
     for (int32_t v = 0; v < m->nv; v++)
         if (out->comp[v] >= 0)
-            cvert[todo[out->comp[v]]++ + cstart[out->comp[v]]] = v;
+            cvert[cstart[out->comp[v]] + todo[out->comp[v]]++] = v;
     {
-        /* The tree reorders its list: give it a copy (todo is free again after). */
+        /* The tree reorders its list: give it a copy. */
         int32_t *verts = dtx_alloc((size_t)nin, sizeof *verts, 0);
         if (!verts)
             goto nomem;
@@ -918,7 +948,7 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
             goto nomem;
     }
 
-    /* ---- Minimum spanning tree, then d_a + eps_a. */
+    /* ---- Minimum spanning tree, then r_a = d_a + eps_a. */
     if (!(tree = dtx_alloc((size_t)ncomp - 1, 2 * sizeof *tree, 0)) ||
         !(tree_d2 = dtx_alloc((size_t)ncomp - 1, sizeof *tree_d2, 0)))
         goto nomem;
@@ -949,101 +979,77 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
         }
     }
 
-    /* ---- Per-thread scratch (kept clean by the tasks). */
+    /* ---- Per-thread scratch (kept clean by the tasks), chunk records. */
     if (!(scr = dtx_alloc((size_t)nthreads, sizeof *scr, 1)) ||
         !(scr_dbl = dtx_alloc((size_t)nthreads * (size_t)ncomp, sizeof *scr_dbl, 0)) ||
-        !(scr_int = dtx_alloc((size_t)nthreads * (size_t)ncomp, 4 * sizeof *scr_int, 0)) ||
-        !(redo = dtx_alloc((size_t)ncomp, 1, 1)))
+        !(scr_int = dtx_alloc((size_t)nthreads * (size_t)ncomp, 3 * sizeof *scr_int, 0)) ||
+        !(redo = dtx_alloc((size_t)ncomp, 1, 1)) ||
+        !(ch.tid = dtx_alloc((size_t)ncomp, sizeof *ch.tid, 0)) ||
+        !(ch.off = dtx_alloc((size_t)ncomp, sizeof *ch.off, 0)) ||
+        !(ch.n = dtx_alloc((size_t)ncomp, sizeof *ch.n, 0)))
         goto nomem;
     for (int th = 0; th < nthreads; th++) {
-        int32_t *base = scr_int + (size_t)th * 4 * (size_t)ncomp;
+        int32_t *base = scr_int + (size_t)th * 3 * (size_t)ncomp;
         scr[th].bd2 = scr_dbl + (size_t)th * (size_t)ncomp;
         scr[th].bi = base;
         scr[th].bj = base + ncomp;
         scr[th].touched = base + 2 * (size_t)ncomp;
-        scr[th].emap = base + 3 * (size_t)ncomp;
         for (int32_t c = 0; c < ncomp; c++)
-            scr[th].bi[c] = scr[th].emap[c] = -1;
+            scr[th].bi[c] = -1;
     }
 
-    /* ---- Graph edges. */
+    /* ---- Graph edges: each component's chunk is sorted by b, so the
+     * chunks in component order are sorted by (a, b). */
     memset(&ctx, 0, sizeof ctx);
     ctx.t = &t;
     ctx.V = m->V;
     ctx.ncomp = ncomp;
     ctx.cstart = cstart;
     ctx.cvert = cvert;
+    ctx.cbox = cbox;
     ctx.r = r;
     ctx.r2 = r2;
     ctx.node_r2 = node_r2;
     if (!(buf = tbufs_alloc(nthreads, sizeof(edge_rec), 4 * (size_t)ncomp / (size_t)nthreads + 64)))
         goto nomem;
-    if ((st = run_tasks(&ctx, edge_task, scr, buf, nthreads, todo, redo, err)) != DTX_OK)
+    if ((st = run_tasks(&ctx, edge_task, scr, buf, nthreads, todo, redo, &ch, err)) != DTX_OK)
         goto fail;
-    if (!(erec = tbufs_gather(buf, nthreads, sizeof *erec, &nerec)))
-        goto nomem;
-    tbufs_free(buf, nthreads);
-    buf = NULL;
-    qsort(erec, nerec, sizeof *erec, cmp_edge);
-    if (nerec > INT32_MAX) {
-        st = dtx_seterr(err, DTX_ERANGE, "proximity: %zu graph edges exceed the int32 range",
-                        nerec);
-        goto fail;
-    }
-    nedges = (int32_t)nerec;
-
-    /* ---- Pair search inputs per edge. */
-    if (!(estart = dtx_alloc((size_t)ncomp + 1, sizeof *estart, 1)) ||
-        !(eb = dtx_alloc(nerec, sizeof *eb, 0)) || !(ei = dtx_alloc(nerec, sizeof *ei, 0)) ||
-        !(ej = dtx_alloc(nerec, sizeof *ej, 0)) || !(R = dtx_alloc(nerec, sizeof *R, 0)) ||
-        !(R2 = dtx_alloc(nerec, sizeof *R2, 0)) || !(edist = dtx_alloc(nerec, sizeof *edist, 0)))
-        goto nomem;
-    for (int32_t e = 0; e < nedges; e++) {
-        const edge_rec *x = &erec[e];
-        double ea = out->eps[x->a], ebb = out->eps[x->b];
-        estart[x->a + 1]++;
-        eb[e] = x->b;
-        ei[e] = x->i;
-        ej[e] = x->j;
-        edist[e] = sqrt(x->d2);
-        R[e] = edist[e] + (ea < ebb ? ea : ebb);
-        R2[e] = search2(R[e]);
-    }
+    total = 0;
     for (int32_t c = 0; c < ncomp; c++)
-        estart[c + 1] += estart[c];
-    ctx.estart = estart;
-    ctx.eb = eb;
-    ctx.ei = ei;
-    ctx.ej = ej;
-    ctx.edist = edist;
-    ctx.R = R;
-    ctx.R2 = R2;
-
-    /* ---- Proximity pairs. */
-    if (!(buf = tbufs_alloc(nthreads, sizeof(pair_rec),
-                            2 * (size_t)nin / (size_t)nthreads + 1024)))
-        goto nomem;
-    if ((st = run_tasks(&ctx, pair_task, scr, buf, nthreads, todo, redo, err)) != DTX_OK)
+        total += ch.n[c];
+    if (total > INT32_MAX) {
+        st =
+            dtx_seterr(err, DTX_ERANGE, "proximity: %zu graph edges exceed the int32 range", total);
         goto fail;
-    if (!(prec = tbufs_gather(buf, nthreads, sizeof *prec, &nprec)))
-        goto nomem;
-    tbufs_free(buf, nthreads);
-    buf = NULL;
-    qsort(prec, nprec, sizeof *prec, cmp_pair);
-
-    /* ---- Outputs. */
-    if (!alloc_graph(out, nerec, nprec))
+    }
+    nedges = (int32_t)total;
+    if (!alloc_edges(out, total) || !(estart = dtx_alloc((size_t)ncomp + 1, sizeof *estart, 1)) ||
+        !(eb = dtx_alloc(total, sizeof *eb, 0)) || !(ei = dtx_alloc(total, sizeof *ei, 0)) ||
+        !(ej = dtx_alloc(total, sizeof *ej, 0)) || !(R = dtx_alloc(total, sizeof *R, 0)) ||
+        !(R2 = dtx_alloc(total, sizeof *R2, 0)))
         goto nomem;
     out->nedges = nedges;
-    if (nerec)
-        memcpy(out->edge_dist, edist, nerec * sizeof *edist);
-    for (int32_t e = 0; e < nedges; e++) {
-        out->edges[2 * e] = erec[e].a;
-        out->edges[2 * e + 1] = erec[e].b;
-        out->edge_pair[2 * e] = erec[e].i;
-        out->edge_pair[2 * e + 1] = erec[e].j;
+    for (int32_t a = 0, e = 0; a < ncomp; a++) {
+        estart[a + 1] = estart[a] + (int32_t)ch.n[a];
+        for (size_t k = 0; k < ch.n[a]; k++, e++) {
+            const edge_rec *x = chunk_rec(buf, &ch, a, k);
+            double ea = out->eps[a], ebb = out->eps[x->b];
+            out->edges[2 * e] = a;
+            out->edges[2 * e + 1] = x->b;
+            out->edge_pair[2 * e] = x->i;
+            out->edge_pair[2 * e + 1] = x->j;
+            out->edge_dist[e] = sqrt(x->d2);
+            eb[e] = x->b;
+            ei[e] = x->i;
+            ej[e] = x->j;
+            R[e] = out->edge_dist[e] + (ea < ebb ? ea : ebb);
+            R2[e] = search2(R[e]);
+        }
     }
-    /* Tree edges, sorted, against the sorted edge list. */
+    tbufs_free(buf, nthreads);
+    buf = NULL;
+    /* Tree edges, sorted, against the sorted edge list (they are all in it:
+     * d_ab <= d_a <= r_a). */
     qsort(tree, (size_t)ntree, 2 * sizeof *tree, cmp_int2);
     for (int32_t e = 0, k = 0; e < nedges && k < ntree; e++) {
         while (k < ntree && cmp_int2(tree + 2 * k, out->edges + 2 * e) < 0)
@@ -1051,18 +1057,42 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
         if (k < ntree && cmp_int2(tree + 2 * k, out->edges + 2 * e) == 0)
             out->in_tree[e] = 1;
     }
-    out->npairs = (int64_t)nprec;
-    for (size_t k = 0; k < nprec; k++) {
-        out->pairs[2 * k] = prec[k].i;
-        out->pairs[2 * k + 1] = prec[k].j;
-        out->pair_edge[k] = prec[k].e;
-        out->rest_len[k] = sqrt(dist2(m->V + 3 * prec[k].i, m->V + 3 * prec[k].j));
+
+    /* ---- Proximity pairs, sorted the same way. */
+    ctx.estart = estart;
+    ctx.eb = eb;
+    ctx.ei = ei;
+    ctx.ej = ej;
+    ctx.edist = out->edge_dist;
+    ctx.R = R;
+    ctx.R2 = R2;
+    if (!(buf = tbufs_alloc(nthreads, sizeof(pair_rec), 4 * (size_t)nin / (size_t)nthreads + 1024)))
+        goto nomem;
+    if ((st = run_tasks(&ctx, pair_task, scr, buf, nthreads, todo, redo, &ch, err)) != DTX_OK)
+        goto fail;
+    total = 0;
+    for (int32_t c = 0; c < ncomp; c++)
+        total += ch.n[c];
+    if (!alloc_pairs(out, total))
+        goto nomem;
+    out->npairs = (int64_t)total;
+    at = 0;
+    for (int32_t a = 0; a < ncomp; a++) {
+        const pair_rec *x = ch.n[a] ? chunk_rec(buf, &ch, a, 0) : NULL;
+        for (size_t k = 0; k < ch.n[a]; k++, at++) {
+            out->pairs[2 * at] = x[k].i;
+            out->pairs[2 * at + 1] = x[k].j;
+            out->pair_edge[at] = x[k].e;
+            out->rest_len[at] = x[k].len;
+        }
     }
     goto done;
 
 nomem:
-    st = dtx_seterr(err, DTX_ENOMEM, "proximity: out of memory (mesh of %d vertices, %d "
-                    "faces)", (int)m->nv, (int)m->nf);
+    st = dtx_seterr(err, DTX_ENOMEM,
+                    "proximity: out of memory (mesh of %d vertices, %d "
+                    "faces)",
+                    (int)m->nv, (int)m->nf);
 fail:
     dtx_proximity_free(out);
 done:
@@ -1070,6 +1100,7 @@ done:
     tbufs_free(buf, nthreads);
     free(cstart);
     free(cvert);
+    free(cbox);
     free(tree);
     free(todo);
     free(estart);
@@ -1083,12 +1114,12 @@ done:
     free(node_r2);
     free(R);
     free(R2);
-    free(edist);
     free(scr_dbl);
     free(redo);
     free(scr);
-    free(erec);
-    free(prec);
+    free(ch.tid);
+    free(ch.off);
+    free(ch.n);
     return st;
 }
 
@@ -1096,8 +1127,8 @@ done:
 /* E_R triangle pairs                                                  */
 /* ------------------------------------------------------------------ */
 
-dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *p,
-                                        int32_t *tri, dtx_error *err)
+dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *p, int32_t *tri,
+                                        dtx_error *err)
 {
     dtx_status st = DTX_OK;
     int64_t np;
@@ -1109,15 +1140,18 @@ dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *
         return dtx_seterr(err, DTX_EINVAL, "proximity triangle pairs: no mesh or graph given");
     np = p->npairs;
     if (np < 0 || (np > 0 && (!p->pairs || !tri)))
-        return dtx_seterr(err, DTX_EINVAL, "proximity triangle pairs: %lld pairs with "
-                          "missing arrays", (long long)np);
+        return dtx_seterr(err, DTX_EINVAL,
+                          "proximity triangle pairs: %lld pairs with "
+                          "missing arrays",
+                          (long long)np);
     if ((st = check_mesh(m, err)) != DTX_OK)
         return st;
     for (int64_t q = 0; q < 2 * np; q++)
         if (p->pairs[q] < 0 || p->pairs[q] >= m->nv)
-            return dtx_seterr(err, DTX_ERANGE, "proximity triangle pairs: pair %lld has "
-                              "vertex %d out of range [0, %d)", (long long)(q / 2),
-                              (int)p->pairs[q], (int)m->nv);
+            return dtx_seterr(err, DTX_ERANGE,
+                              "proximity triangle pairs: pair %lld has "
+                              "vertex %d out of range [0, %d)",
+                              (long long)(q / 2), (int)p->pairs[q], (int)m->nv);
 
     /* Faces around each vertex, ascending. */
     vstart = dtx_alloc((size_t)m->nv + 1, sizeof *vstart, 1);
@@ -1142,8 +1176,10 @@ dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *
     for (int64_t q = 0; q < 2 * np; q++) {
         int32_t v = p->pairs[q];
         if (vstart[v + 1] == vstart[v]) {
-            st = dtx_seterr(err, DTX_EINVAL, "proximity triangle pairs: vertex %d of pair "
-                            "%lld is in no face", (int)v, (long long)(q / 2));
+            st = dtx_seterr(err, DTX_EINVAL,
+                            "proximity triangle pairs: vertex %d of pair "
+                            "%lld is in no face",
+                            (int)v, (long long)(q / 2));
             goto done;
         }
     }
@@ -1151,7 +1187,8 @@ dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *
     for (int32_t f = 0; f < m->nf; f++)
         for (int k = 0; k < 3; k++)
             B[3 * f + k] = (m->V[3 * m->F[3 * f] + k] + m->V[3 * m->F[3 * f + 1] + k] +
-                            m->V[3 * m->F[3 * f + 2] + k]) / 3.0;
+                            m->V[3 * m->F[3 * f + 2] + k]) /
+                           3.0;
 
 #pragma omp parallel for schedule(static)
     for (int64_t q = 0; q < np; q++) {

@@ -38,7 +38,7 @@ typedef struct {
     unsigned char *in_tree; /* nedges: 1 when the edge is in the minimum spanning tree */
     int32_t *edge_pair;     /* nedges x 2: the closest vertex pair (i in a, j in b) of the
                                edge, |v_i - v_j| = d_ab; lowest (i, j) among ties */
-    int64_t npairs;
+    int64_t npairs;         /* proximity pairs, all edges together */
     int32_t *pairs;         /* npairs x 2 vertex pairs (i in component a, j in component b) of
                                P_ab: the closest pair of every edge plus every pair with
                                |v_i - v_j| < d_ab + min(eps_a, eps_b); sorted by edge then (i, j) */
@@ -54,10 +54,12 @@ typedef struct {
  *
  * Deterministic (ties broken by lowest index, see above) and bitwise the
  * same for any OpenMP thread count.  Time about O(n log n) in the number n
- * of vertices in faces plus the output (a k-d tree over the vertices; the
- * tree by Boruvka rounds of nearest-other-cluster queries); the pair count
- * is what the paper's rule gives and can be large when components are
- * close compared with their edge lengths.
+ * of vertices in faces, plus the output (a k-d tree over the vertices; the
+ * tree by Boruvka rounds of nearest-other-cluster queries).  The output is
+ * what the paper's rule gives and is not bounded by n: P_ab takes every
+ * pair closer than d_ab + min(eps_a, eps_b), which for components far
+ * apart compared with their size is nearly all |a| x |b| pairs (20 bytes
+ * each in *out, up to about three times that while building).
  *
  * Fails with DTX_EINVAL (eps_factor negative or not finite), DTX_ERANGE (a
  * face index outside [0, nv)), DTX_ENONFINITE (a vertex in a face with a
@@ -77,11 +79,12 @@ void dtx_proximity_free(dtx_proximity *p);
  * normals (still allowed).  p must come from dtx_proximity_build on m (or
  * have pairs of vertices that are in faces of m).
  *
- * Fails with DTX_ERANGE (a face or pair index out of range), DTX_EINVAL (a
- * pair vertex in no face, or tri NULL with pairs to write) or DTX_ENOMEM;
- * tri is then unspecified.  Bitwise the same for any OpenMP thread count;
+ * Fails with DTX_ERANGE (a face or pair index out of range), DTX_ENONFINITE
+ * (a vertex in a face with a non-finite coordinate), DTX_EINVAL (a pair
+ * vertex in no face, or tri NULL with pairs to write) or DTX_ENOMEM; tri is
+ * then unspecified.  Bitwise the same for any OpenMP thread count;
  * thread-safe. */
-dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *p,
-                                        int32_t *tri, dtx_error *err);
+dtx_status dtx_proximity_triangle_pairs(const dtx_mesh *m, const dtx_proximity *p, int32_t *tri,
+                                        dtx_error *err);
 
 #endif /* DTX_PROXIMITY_H */

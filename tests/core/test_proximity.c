@@ -88,7 +88,7 @@ static double urand(void)
     return (double)(rng_state >> 11) / 9007199254740992.0;
 }
 
-/* ncomp small components (tetrahedra, single triangles or 3x3 grids) at
+/* ncomp small components (tetrahedra, single triangles, 3x3 or 5x4 grids) at
  * random places in a box of side `box`, with some vertices in no face and
  * the vertex numbering shuffled, so components interleave.  lattice != 0
  * puts every vertex on the integer lattice (many equal distances). */
@@ -101,7 +101,7 @@ static dtx_mesh random_scene(int ncomp, double box, int lattice, int nloose)
     for (int c = 0; c < ncomp; c++) {
         double o[3] = {urand() * box, urand() * box, urand() * box};
         double s = lattice ? 1.0 : 0.2 + urand();
-        int kind = (int)(urand() * 3);
+        int kind = (int)(urand() * 4);
         int32_t base = b.nv;
         if (lattice)
             for (int k = 0; k < 3; k++)
@@ -121,7 +121,9 @@ static dtx_mesh random_scene(int ncomp, double box, int lattice, int nloose)
             add_v(&b, o[0], o[1] + s, o[2] + s);
             add_f(&b, base, base + 1, base + 2);
         } else {
-            add_grid(&b, 3, 3, lattice ? 1.0 : 0.5 * s, o[0], o[1], o[2]);
+            /* 3x3 or 5x4: big enough to span several k-d tree leaves. */
+            add_grid(&b, kind == 2 ? 3 : 5, kind == 2 ? 3 : 4, lattice ? 1.0 : 0.5 * s, o[0], o[1],
+                     o[2]);
         }
     }
     for (int k = 0; k < nloose; k++)
@@ -276,8 +278,7 @@ static void reference(const dtx_mesh *m, double eps_factor, dtx_proximity *out)
         for (int32_t b = a + 1; b < nc; b++) {
             double d = sqrt(D2[a * nc + b]), R;
             int32_t e = out->nedges;
-            if (!intree[a * nc + b] &&
-                !(d <= dmax[a] + out->eps[a] && d <= dmax[b] + out->eps[b]))
+            if (!intree[a * nc + b] && !(d <= dmax[a] + out->eps[a] && d <= dmax[b] + out->eps[b]))
                 continue;
             out->edges[2 * e] = a;
             out->edges[2 * e + 1] = b;
@@ -341,8 +342,7 @@ static int same_result(const dtx_mesh *m, const dtx_proximity *x, const dtx_prox
     CHECK(memcmp(x->edges, y->edges, (size_t)x->nedges * 2 * sizeof *x->edges) == 0);
     CHECK(memcmp(x->edge_dist, y->edge_dist, (size_t)x->nedges * sizeof *x->edge_dist) == 0);
     CHECK(memcmp(x->in_tree, y->in_tree, (size_t)x->nedges) == 0);
-    CHECK(memcmp(x->edge_pair, y->edge_pair, (size_t)x->nedges * 2 * sizeof *x->edge_pair) ==
-          0);
+    CHECK(memcmp(x->edge_pair, y->edge_pair, (size_t)x->nedges * 2 * sizeof *x->edge_pair) == 0);
     CHECK(memcmp(x->pairs, y->pairs, (size_t)x->npairs * 2 * sizeof *x->pairs) == 0);
     CHECK(memcmp(x->rest_len, y->rest_len, (size_t)x->npairs * sizeof *x->rest_len) == 0);
     CHECK(memcmp(x->pair_edge, y->pair_edge, (size_t)x->npairs * sizeof *x->pair_edge) == 0);
@@ -361,8 +361,8 @@ static void check_properties(const dtx_mesh *m, const dtx_proximity *p)
         int32_t a = p->edges[2 * e], b = p->edges[2 * e + 1];
         int32_t i = p->edge_pair[2 * e], j = p->edge_pair[2 * e + 1];
         if (!(a < b) || a < 0 || b >= nc ||
-            (e > 0 && !(p->edges[2 * e - 2] < a ||
-                        (p->edges[2 * e - 2] == a && p->edges[2 * e - 1] < b))))
+            (e > 0 &&
+             !(p->edges[2 * e - 2] < a || (p->edges[2 * e - 2] == a && p->edges[2 * e - 1] < b))))
             bad_sort++;
         if (p->comp[i] != a || p->comp[j] != b)
             bad_comp++;
@@ -437,8 +437,7 @@ static void set_threads(int n)
 
 /* Builds with 1 and with 2 threads, checks they agree bitwise, the
  * properties, and (when check_ref) the brute-force reference. */
-static void check_mesh_case(const dtx_mesh *m, double eps_factor, int check_ref,
-                            const char *what)
+static void check_mesh_case(const dtx_mesh *m, double eps_factor, int check_ref, const char *what)
 {
     dtx_proximity p1, p2, ref;
     dtx_error err = {0};
@@ -455,8 +454,8 @@ static void check_mesh_case(const dtx_mesh *m, double eps_factor, int check_ref,
         dtx_proximity_free(&ref);
     }
     if (check_failed_ != before)
-        fprintf(stderr, "  in case %s (eps_factor %g: %d components, %d edges, %lld pairs)\n",
-                what, eps_factor, (int)p2.ncomp, (int)p2.nedges, (long long)p2.npairs);
+        fprintf(stderr, "  in case %s (eps_factor %g: %d components, %d edges, %lld pairs)\n", what,
+                eps_factor, (int)p2.ncomp, (int)p2.nedges, (long long)p2.npairs);
     dtx_proximity_free(&p1);
     dtx_proximity_free(&p2);
 }
@@ -606,6 +605,38 @@ static void test_chain(void)
     dtx_mesh_free(&m);
 }
 
+/* A tie for the closest pair at the same vertex i: i = 0 at the origin is
+ * at the same distance from two vertices of a 5 x 4 grid in z = 1 (x and y
+ * descending, so the lower index is at the larger y): (0, 0.5, 1) is
+ * vertex 3 + 7 = 10 and (0, -0.5, 1) is 3 + 12 = 15.  The two sit in
+ * different k-d tree leaves at the same box distance, and the search meets
+ * 15 first (lower y); the lower index must still win. */
+static void test_tie_same_vertex(void)
+{
+    builder b = {0};
+    dtx_mesh m;
+    dtx_proximity p;
+    dtx_error err = {0};
+    add_v(&b, 0, 0, 0);
+    add_v(&b, -5, 0, -1);
+    add_v(&b, -5, 1, -1);
+    add_f(&b, 0, 1, 2);
+    add_grid(&b, 5, 4, -1.0, 2.0, 1.5, 1.0);
+    m = finish(&b);
+    CHECK_OK(dtx_proximity_build(&m, 0.0, &p, &err), &err);
+    CHECK_EQ_INT(p.nedges, 1);
+    if (p.nedges == 1) {
+        CHECK_EQ_INT(p.edge_pair[0], 0);
+        CHECK_EQ_INT(p.edge_pair[1], 10);
+        CHECK_DBL(p.edge_dist[0], ==, sqrt(1.25));
+    }
+    CHECK_EQ_INT(p.npairs, 1);
+    dtx_proximity_free(&p);
+    check_mesh_case(&m, 0.0, 1, "tie at one vertex");
+    check_mesh_case(&m, 1.5, 1, "tie at one vertex");
+    dtx_mesh_free(&m);
+}
+
 static void test_single_component(void)
 {
     builder b = {0};
@@ -688,9 +719,11 @@ static double pair_score(const dtx_mesh *m, int32_t ta, int32_t tb)
     dtx_face_normals(m->V, m->F + 3 * tb, 1, N + 3);
     for (int k = 0; k < 3; k++) {
         Ba[k] = (m->V[3 * m->F[3 * ta] + k] + m->V[3 * m->F[3 * ta + 1] + k] +
-                 m->V[3 * m->F[3 * ta + 2] + k]) / 3.0;
+                 m->V[3 * m->F[3 * ta + 2] + k]) /
+                3.0;
         Bb[k] = (m->V[3 * m->F[3 * tb] + k] + m->V[3 * m->F[3 * tb + 1] + k] +
-                 m->V[3 * m->F[3 * tb + 2] + k]) / 3.0;
+                 m->V[3 * m->F[3 * tb + 2] + k]) /
+                3.0;
         h[k] = Bb[k] - Ba[k];
     }
     return fabs(h[0] * N[0] + h[1] * N[1] + h[2] * N[2]) +
@@ -859,6 +892,7 @@ int main(void)
 {
     test_two_squares();
     test_chain();
+    test_tie_same_vertex();
     test_single_component();
     test_errors();
     test_triangle_pairs_hand();
