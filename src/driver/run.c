@@ -447,12 +447,13 @@ static dtx_status expand_sequences(run_state *r, dtx_error *err)
         }
         for (int64_t k = 0; k < nn && st == DTX_OK; k++) {
             char full[DTX_H5_PATH_MAX];
-            if (names)
-                snprintf(full, sizeof full, "%s/%s", strcmp(parent, "/") ? parent : "",
-                         names[k]);
-            else
-                snprintf(full, sizeof full, "%s", p);
-            if (!(r->seq_paths[n] = strdup(full)))
+            int plen = names ? snprintf(full, sizeof full, "%s/%s",
+                                       strcmp(parent, "/") ? parent : "", names[k])
+                            : snprintf(full, sizeof full, "%s", p);
+            if (plen < 0 || (size_t)plen >= sizeof full)
+                st = dtx_seterr(err, DTX_EJOB, "%s: sequence path %s/%s is too long",
+                                r->job.source_file, parent, names ? names[k] : "");
+            else if (!(r->seq_paths[n] = strdup(full)))
                 st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
             else
                 n++;
