@@ -17,30 +17,45 @@
  * triangle; the one-ring of a triangle is every triangle sharing a vertex
  * with it; L is the uniform Laplacian of the component and dhat(x) = L x
  * |L v| / |L x| keeps the rest Laplacian coordinates' lengths (Huang et al.
- * 2006).  Lengths in E3 and E4 are divided by h, the target's mean edge
- * length, so that the weights mean the same at any model scale (E1 and E2
+ * 2006).  Lengths in E3 and E4 are divided by h, the target's bounding-box
+ * diagonal, so that the weights mean the same at any model scale (E1 and E2
  * are scale-free).
  *
  * Gauss-Newton with the usual linearisation: in iteration k, E3's pairs
  * aim at l_ij d_ij and E4's rows at dhat, with the directions d_ij = (x_i -
- * x_j) / |x_i - x_j| and dhat taken from the previous iterate (the rest pose
- * for the first).  Each iteration is then a linear least-squares problem
- * whose matrix
+ * x_j) / |x_i - x_j| and dhat taken from the previous iterate (for the
+ * first: the rest directions of the pairs turned by the source gradients at
+ * their ends, and the rest Laplacian coordinates).  Each iteration is then
+ * a linear least-squares problem whose matrix
  *     A = w1 sum G_t^T G_t + w2 sum (G_ti - G_tj)^T (G_ti - G_tj)
  *       + w3/h^2 sum (e_i - e_j)(e_i - e_j)^T + w4/h^2 sum L^T L
  * does not depend on the iterate or the frame: it is factored once (CHOLMOD,
- * simplicial, so that no BLAS threads run inside the OpenMP loop), and an
- * iteration is one back-substitution with 3 right-hand sides.  A frame
- * iterates until no vertex moves by more than tol x the target diagonal,
- * or max_iter times.  Without E3 and E4 terms (one component, every
- * triangle paired) one solve is exact, and the result is sp04's.
+ * simplicial L D L^T, so that no BLAS runs inside the OpenMP loop), and an
+ * iteration is one back-substitution with 3 right-hand sides.  Without E3
+ * and E4 terms (one component, every triangle paired) one solve is exact,
+ * and the result is sp04's.
+ *
+ * The iterations are a fixed-point iteration x <- G(x) (G(x): the solve
+ * with the directions of x), which only ever lowers E: each step minimises
+ * a quadratic that bounds E from above and equals it at x.  It converges
+ * slowly where the components can slide against each other, so it is
+ * accelerated (Anderson, type II, over the last MC_AA_DEPTH steps) and
+ * safeguarded: an accelerated iterate is kept only if it lowers E, else the
+ * plain step is taken and the history dropped.  A frame stops when the
+ * step G(x) - x moves no vertex by more than tol x the target diagonal (the
+ * result is then G(x)), or after max_iter solves.
+ *
+ * Every frame is solved by one thread with its own workspace, in a fixed
+ * order, so its result does not depend on the thread count or on how the
+ * sequence is split.  (Solving several frames' right-hand sides in one
+ * sweep over the factor was tried: with 4 frames a sweep took 4 times as
+ * long as one frame's, the rows of the frames' values being too many for
+ * the caches, and a hand-written sweep was slower than cholmod_solve2.)
  *
  * The global translation is fixed as in sp04: pinned vertices, or one
  * anchor vertex solved at 0 and the frame shifted afterwards so that its
  * centroid is the rest centroid (or follows the source's centroid).  Every
- * frame starts from the rest pose and is solved by one thread with its own
- * workspace, in a fixed order, so a frame's result does not depend on the
- * thread count or on how the sequence is split.
+ * frame starts from the rest pose.
  */
 #include "dtx_core.h"
 #include "proximity.h"
@@ -65,17 +80,41 @@ void dtx_mc_params_default(dtx_mc_params *p)
     p->tol = 1e-6;
 }
 
+/* Anderson acceleration: the number of past steps combined. */
+#define MC_AA_DEPTH 5
+
 /* ------------------------------------------------------------------ */
 /* Plan                                                                */
 /* ------------------------------------------------------------------ */
 
+/* One frame in progress.  Vectors over the free unknowns are nfree x 3,
+ * column-major (coordinate c of free unknown i at c * nfree + i). */
+typedef struct {
+    const double *Xs;        /* the frame's source positions */
+    double *Xt;              /* where its result goes */
+    double *residual;        /* NULL or where its residual goes */
+    int32_t *iters;          /* NULL or where its iteration count goes */
+    int it;                  /* solves done */
+    int nh, head, have_last; /* Anderson history: count, next slot, fl/gl valid */
+    double e_cur;            /* energy of the current iterate */
+    double *S;               /* nf_s x 9: the frame's source gradients */
+    double *Sp;              /* npairs x 9: each pair's source gradient projected onto
+                                the target triangle's plane (E1's target) */
+    double *b1;              /* frame part of the right-hand side */
+    double *b;               /* the right-hand side of the next solve (the worker's B) */
+    const double *g;         /* the last solve's result (the worker's X) */
+    double *x;               /* nv_t x 3: current iterate (anchored) */
+    double *lx;              /* nlap x 3: L x of the current iterate */
+    double *xf;              /* the current iterate */
+    double *fl, *gl;         /* the last step G(x) - x and its G(x) */
+    double *df, *dg;         /* MC_AA_DEPTH vectors each: differences of successive f, g */
+    double gram[MC_AA_DEPTH * MC_AA_DEPTH]; /* df_i . df_j */
+} mc_frame;
+
 typedef struct {
     cholmod_common cc;
-    cholmod_dense *B, *X, *Y, *E;
-    double *S;   /* nf_s x 9: the frame's source gradients */
-    double *b1;  /* nfree x 3 (column-major): frame part of the right-hand side */
-    double *x;   /* nv_t x 3: current iterate (anchored) */
-    double *lx;  /* nlap x 3: L x of the current iterate */
+    cholmod_dense *B, *X, *Y, *E; /* cholmod_solve2's right-hand side, result, workspace */
+    mc_frame fr;                  /* the frame in progress */
 } mc_worker;
 
 struct dtx_mc_plan {
@@ -132,15 +171,22 @@ static void free_workers(dtx_mc_plan *p)
 {
     for (int w = 0; w < p->nworkers; w++) {
         mc_worker *k = &p->workers[w];
+        mc_frame *fr = &k->fr;
         cholmod_free_dense(&k->B, &k->cc);
         cholmod_free_dense(&k->X, &k->cc);
         cholmod_free_dense(&k->Y, &k->cc);
         cholmod_free_dense(&k->E, &k->cc);
         cholmod_finish(&k->cc);
-        free(k->S);
-        free(k->b1);
-        free(k->x);
-        free(k->lx);
+        free(fr->S);
+        free(fr->Sp);
+        free(fr->b1);
+        free(fr->x);
+        free(fr->lx);
+        free(fr->xf);
+        free(fr->fl);
+        free(fr->gl);
+        free(fr->df);
+        free(fr->dg);
     }
     free(p->workers);
     p->workers = NULL;
@@ -758,6 +804,7 @@ int32_t dtx_mc_plan_nv_tgt(const dtx_mc_plan *p) { return p->nv_t; }
 static dtx_status ensure_workers(dtx_mc_plan *p, dtx_error *err)
 {
     int n = 1;
+    const size_t n3 = 3 * (size_t)p->nfree;
 #ifdef _OPENMP
     n = omp_get_max_threads();
 #endif
@@ -770,17 +817,26 @@ static dtx_status ensure_workers(dtx_mc_plan *p, dtx_error *err)
     p->nworkers = n;
     for (int w = 0; w < n; w++) {
         mc_worker *k = &p->workers[w];
+        mc_frame *fr = &k->fr;
         cholmod_start(&k->cc);
         k->cc.print = 0;
         k->B = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
-        k->S = dtx_alloc((size_t)p->nf_s, 9 * sizeof *k->S, 0);
-        k->b1 = dtx_alloc((size_t)p->nfree, 3 * sizeof *k->b1, 0);
-        k->x = dtx_alloc((size_t)p->nv_t, 3 * sizeof *k->x, 0);
-        k->lx = dtx_alloc((size_t)p->nlap, 3 * sizeof *k->lx, 0);
-        if (!k->B || !k->S || !k->b1 || !k->x || !k->lx) {
+        fr->S = dtx_alloc((size_t)p->nf_s, 9 * sizeof *fr->S, 0);
+        fr->Sp = dtx_alloc((size_t)p->npairs, 9 * sizeof *fr->Sp, 0);
+        fr->b1 = dtx_alloc(n3, sizeof *fr->b1, 0);
+        fr->x = dtx_alloc((size_t)p->nv_t, 3 * sizeof *fr->x, 0);
+        fr->lx = dtx_alloc((size_t)p->nlap, 3 * sizeof *fr->lx, 0);
+        fr->xf = dtx_alloc(n3, sizeof *fr->xf, 0);
+        fr->fl = dtx_alloc(n3, sizeof *fr->fl, 0);
+        fr->gl = dtx_alloc(n3, sizeof *fr->gl, 0);
+        fr->df = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->df, 0);
+        fr->dg = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->dg, 0);
+        if (!k->B || !fr->S || !fr->Sp || !fr->b1 || !fr->x || !fr->lx || !fr->xf || !fr->fl ||
+            !fr->gl || !fr->df || !fr->dg) {
             free_workers(p);
             return dtx_seterr(err, DTX_ENOMEM, "out of memory for solver workspaces");
         }
+        fr->b = k->B->x;
     }
     return DTX_OK;
 }
@@ -798,8 +854,9 @@ static void laplacian_apply(const dtx_mc_plan *p, const double *x, double *lx)
 }
 
 /* The Laplacian target of row r: L x scaled to the rest length (the rest
- * vector itself while L x vanishes). */
-static void lap_target(const dtx_mc_plan *p, int32_t r, const double *lx, double *t)
+ * vector itself while L x vanishes).  Returns the row's E4 term (|L x| -
+ * |L v|)^2, unweighted. */
+static double lap_target(const dtx_mc_plan *p, int32_t r, const double *lx, double *t)
 {
     const double *d = lx + 3 * (size_t)r;
     double n = sqrt(dot3(d, d));
@@ -808,17 +865,20 @@ static void lap_target(const dtx_mc_plan *p, int32_t r, const double *lx, double
             t[c] = d[c] * (p->lap_mag[r] / n);
     else
         memcpy(t, p->lap_rest + 3 * (size_t)r, 3 * sizeof *t);
+    return (n - p->lap_mag[r]) * (n - p->lap_mag[r]);
 }
 
 /* The proximity pair's target vector l d (rest direction while the pair
- * has collapsed). */
-static void prox_target(const dtx_mc_plan *p, int64_t i, const double *x, double *t)
+ * has collapsed).  Returns the pair's E3 term (|x_i - x_j| - l)^2,
+ * unweighted. */
+static double prox_target(const dtx_mc_plan *p, int64_t i, const double *x, double *t)
 {
     int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
-    double d[3], n, l = p->prox.rest_len[i];
+    double d[3], n, l = p->prox.rest_len[i], e;
     for (int c = 0; c < 3; c++)
         d[c] = x[3 * (size_t)a + c] - x[3 * (size_t)b + c];
     n = sqrt(dot3(d, d));
+    e = (n - l) * (n - l);
     if (!(n > 0.0)) {
         for (int c = 0; c < 3; c++)
             d[c] = p->Vt[3 * (size_t)a + c] - p->Vt[3 * (size_t)b + c];
@@ -826,6 +886,7 @@ static void prox_target(const dtx_mc_plan *p, int64_t i, const double *x, double
     }
     for (int c = 0; c < 3; c++)
         t[c] = n > 0.0 ? d[c] * (l / n) : 0.0;
+    return e;
 }
 
 /* The first iterate's target for proximity pair i: the rest vector
@@ -857,23 +918,19 @@ static void prox_target_first(const dtx_mc_plan *p, int64_t i, const double *S, 
         t[c] = n > 0.0 ? d[c] * (l / n) : 0.0;
 }
 
-/* Energy of the iterate x (see the file comment), for the residual. */
-static double energy(const dtx_mc_plan *p, const double *S, const double *x, const double *lx)
+/* E1 and E2 (weighted) of the iterate x, E1's targets Sp (see mc_frame). */
+static double energy12(const dtx_mc_plan *p, const double *Sp, const double *x)
 {
-    double e1 = 0.0, e2 = 0.0, e3 = 0.0, e4 = 0.0;
+    double e1 = 0.0, e2 = 0.0;
     for (int64_t i = 0; i < p->npairs; i++) {
-        int32_t s = p->pairs[2 * i], t = p->pairs[2 * i + 1];
-        const double *g = p->G + 9 * (size_t)t, *n = p->N + 3 * (size_t)t;
+        int32_t t = p->pairs[2 * i + 1];
+        const double *g = p->G + 9 * (size_t)t, *sp = Sp + 9 * (size_t)i;
+        const double *x0 = x + 3 * (size_t)p->Ft[3 * t], *x1 = x + 3 * (size_t)p->Ft[3 * t + 1],
+                     *x2 = x + 3 * (size_t)p->Ft[3 * t + 2];
         for (int c = 0; c < 3; c++) {
-            const double *srow = S + 9 * (size_t)s + 3 * c;
-            double sn = dot3(srow, n), r[3];
+            double r[3];
             for (int k = 0; k < 3; k++)
-                r[k] = srow[k] - sn * n[k];
-            for (int j = 0; j < 3; j++) {
-                double xv = x[3 * (size_t)p->Ft[3 * t + j] + c];
-                for (int k = 0; k < 3; k++)
-                    r[k] -= xv * g[3 * j + k];
-            }
+                r[k] = sp[3 * c + k] - x0[c] * g[k] - x1[c] * g[3 + k] - x2[c] * g[6 + k];
             e1 += dot3(r, r);
         }
     }
@@ -891,155 +948,173 @@ static double energy(const dtx_mc_plan *p, const double *S, const double *x, con
             e2 += dot3(r, r);
         }
     }
+    return p->w1 * e1 + p->w2 * e2;
+}
+
+/* E3 and E4 (weighted) of the iterate x with Laplacian coordinates lx. */
+static double energy34(const dtx_mc_plan *p, const double *x, const double *lx)
+{
+    double e3 = 0.0, e4 = 0.0;
     for (int64_t i = 0; i < p->prox.npairs; i++) {
         int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
-        double d[3];
+        double d[3], r;
         for (int c = 0; c < 3; c++)
             d[c] = x[3 * (size_t)a + c] - x[3 * (size_t)b + c];
-        d[0] = sqrt(dot3(d, d)) - p->prox.rest_len[i];
-        e3 += d[0] * d[0];
+        r = sqrt(dot3(d, d)) - p->prox.rest_len[i];
+        e3 += r * r;
     }
     for (int32_t r = 0; r < p->nlap; r++) {
         const double *l = lx + 3 * (size_t)r;
         double n = sqrt(dot3(l, l)) - p->lap_mag[r];
         e4 += n * n;
     }
-    return p->w1 * e1 + p->w2 * e2 + p->w3 * e3 + p->w4 * e4;
+    return p->w3 * e3 + p->w4 * e4;
 }
 
-/* Transfers one frame with worker w. */
-static void solve_frame(dtx_mc_plan *p, mc_worker *w, const double *Xs, double *Xt,
-                        double *residual, int32_t *iters)
+/* The right-hand side of the frame's next solve into fr->b: the frame's
+ * part b1 plus E3's and E4's targets, with the directions of the iterate
+ * fr->x (its Laplacian fr->lx), or for the first step (first != 0) the rest
+ * directions turned by the source gradients.  Returns E3 + E4 (weighted)
+ * of the iterate, as energy34 (meaningless for the first step), from the
+ * same lengths. */
+static double build_rhs(const dtx_mc_plan *p, mc_frame *fr, int first)
 {
-    const int32_t nv = p->nv_t, nfree = p->nfree;
-    double *b = w->B->x;
-    int it, ok = 1;
-    double want[3];
-
-    for (int64_t i = 0; i < 3 * (int64_t)p->nv_s; i++)
-        if (!isfinite(Xs[i])) {
-            ok = 0;
-            break;
-        }
-    if (!ok) {
-        for (int64_t i = 0; i < 3 * (int64_t)nv; i++)
-            Xt[i] = NAN;
-        if (residual)
-            *residual = NAN;
-        if (iters)
-            *iters = 0;
-        return;
-    }
-
-    /* E1's right-hand side (the frame's source gradients) plus the pins'. */
-    dtx_deformation_gradients(p->Vinv, p->Fs, p->nf_s, Xs, w->S);
-    memcpy(w->b1, p->bconst, (size_t)nfree * 3 * sizeof *w->b1);
-    for (int64_t i = 0; i < p->npairs; i++) {
-        int32_t s = p->pairs[2 * i], t = p->pairs[2 * i + 1];
-        const double *S = w->S + 9 * (size_t)s;
-        for (int j = 0; j < 3; j++) {
-            int32_t fv = p->freeidx[p->Ft[3 * t + j]];
-            const double *g = p->G + 9 * (size_t)t + 3 * j;
-            if (fv < 0)
-                continue;
-            for (int c = 0; c < 3; c++)
-                w->b1[(size_t)c * nfree + fv] += p->w1 * dot3(g, S + 3 * c);
-        }
-    }
-
-    /* Gauss-Newton from the rest pose. */
-    memcpy(w->x, p->Vt, (size_t)nv * 3 * sizeof *w->x);
-    for (int32_t v = 0; v < nv; v++)
-        if (p->freeidx[v] < 0 && p->used[v])
-            memcpy(w->x + 3 * (size_t)v, p->fixedval + 3 * (size_t)v, 3 * sizeof(double));
-    laplacian_apply(p, p->Vt, w->lx);
-    for (it = 1;; it++) {
-        double move = 0.0;
-        memcpy(b, w->b1, (size_t)nfree * 3 * sizeof *b);
-        if (p->w3 > 0.0)
-            for (int64_t i = 0; i < p->prox.npairs; i++) {
-                /* Directions from the previous iterate; at the start the
-                 * rest directions turned by the source's gradients. */
-                double t[3];
-                int32_t fa = p->freeidx[p->prox.pairs[2 * i]];
-                int32_t fb = p->freeidx[p->prox.pairs[2 * i + 1]];
-                if (it == 1)
-                    prox_target_first(p, i, w->S, t);
-                else
-                    prox_target(p, i, w->x, t);
-                for (int c = 0; c < 3; c++) {
-                    if (fa >= 0)
-                        b[(size_t)c * nfree + fa] += p->w3 * t[c];
-                    if (fb >= 0)
-                        b[(size_t)c * nfree + fb] -= p->w3 * t[c];
-                }
+    const int32_t nfree = p->nfree;
+    double *b = fr->b, e3 = 0.0, e4 = 0.0;
+    memcpy(b, fr->b1, (size_t)nfree * 3 * sizeof *b);
+    if (p->w3 > 0.0)
+        for (int64_t i = 0; i < p->prox.npairs; i++) {
+            double t[3];
+            int32_t fa = p->freeidx[p->prox.pairs[2 * i]];
+            int32_t fb = p->freeidx[p->prox.pairs[2 * i + 1]];
+            if (first)
+                prox_target_first(p, i, fr->S, t);
+            else
+                e3 += prox_target(p, i, fr->x, t);
+            for (int c = 0; c < 3; c++) {
+                if (fa >= 0)
+                    b[(size_t)c * nfree + fa] += p->w3 * t[c];
+                if (fb >= 0)
+                    b[(size_t)c * nfree + fb] -= p->w3 * t[c];
             }
-        if (p->w4 > 0.0)
-            for (int32_t r = 0; r < p->nlap; r++) {
-                double t[3];
-                lap_target(p, r, w->lx, t);
-                for (int64_t q = p->lap_ptr[r]; q < p->lap_ptr[r + 1]; q++) {
-                    int32_t fv = p->freeidx[p->lap_col[q]];
-                    if (fv < 0)
-                        continue;
-                    for (int c = 0; c < 3; c++)
-                        b[(size_t)c * nfree + fv] += p->w4 * p->lap_coef[q] * t[c];
-                }
-            }
-        if (!cholmod_solve2(CHOLMOD_A, p->L, w->B, NULL, &w->X, NULL, &w->Y, &w->E, &w->cc)) {
-            /* Out of memory for the solve's workspace: report the frame as
-             * failed rather than stop the others. */
-            for (int64_t i = 0; i < 3 * (int64_t)nv; i++)
-                Xt[i] = NAN;
-            if (residual)
-                *residual = NAN;
-            if (iters)
-                *iters = it;
-            return;
         }
-        {
-            const double *xs = w->X->x;
-            for (int32_t v = 0; v < nv; v++) {
-                int32_t fv = p->freeidx[v];
+    if (p->w4 > 0.0)
+        for (int32_t r = 0; r < p->nlap; r++) {
+            double t[3];
+            e4 += lap_target(p, r, fr->lx, t);
+            for (int64_t q = p->lap_ptr[r]; q < p->lap_ptr[r + 1]; q++) {
+                int32_t fv = p->freeidx[p->lap_col[q]];
                 if (fv < 0)
                     continue;
-                for (int c = 0; c < 3; c++) {
-                    double nx = xs[(size_t)c * nfree + fv], d = fabs(nx - w->x[3 * (size_t)v + c]);
-                    move = d > move ? d : move;
-                    w->x[3 * (size_t)v + c] = nx;
-                }
+                for (int c = 0; c < 3; c++)
+                    b[(size_t)c * nfree + fv] += p->w4 * p->lap_coef[q] * t[c];
             }
         }
-        laplacian_apply(p, w->x, w->lx);
-        if (!p->nonlinear || it >= p->max_iter || !(move > p->tol_abs))
-            break;
-    }
-    if (iters)
-        *iters = it;
-    if (residual) {
-        double e = energy(p, w->S, w->x, w->lx);
-        *residual = sqrt((e > 0.0 ? e : 0.0) / (double)(p->npairs > 0 ? p->npairs : 1));
-    }
+    return p->w3 * e3 + p->w4 * e4;
+}
 
-    /* Vertices in no face, then the translation (as sp04). */
+/* Makes xf the frame's iterate: its free vertices into fr->x (the fixed ones
+ * stay), and the Laplacian coordinates fr->lx. */
+static void set_iterate(const dtx_mc_plan *p, mc_frame *fr, const double *xf)
+{
+    const int32_t nfree = p->nfree;
+    for (int32_t v = 0; v < p->nv_t; v++) {
+        int32_t fv = p->freeidx[v];
+        if (fv < 0)
+            continue;
+        for (int c = 0; c < 3; c++)
+            fr->x[3 * (size_t)v + c] = xf[(size_t)c * nfree + fv];
+    }
+    laplacian_apply(p, fr->x, fr->lx);
+}
+
+/* Anderson step from the last step (fr->fl = G(x) - x, fr->gl = G(x)) and
+ * the nh stored differences, r[i] = df_i . fl: gamma minimising |fl - df
+ * gamma| (normal equations by Cholesky, 1e-10 of the largest diagonal entry
+ * added to the diagonal), then fr->xf = gl - dg gamma.  0 (xf unchanged)
+ * when that system is not positive definite or gamma is not finite. */
+static int anderson(mc_frame *fr, int nh, size_t n3, double *r)
+{
+    enum { D = MC_AA_DEPTH };
+    double M[D * D], dmax = 0.0;
+    if (nh < 1 || nh > D)
+        return 0;
+    for (int i = 0; i < nh; i++) {
+        for (int j = 0; j < nh; j++)
+            M[i * D + j] = fr->gram[i * D + j];
+        dmax = M[i * D + i] > dmax ? M[i * D + i] : dmax;
+    }
+    if (!(dmax > 0.0))
+        return 0;
+    for (int i = 0; i < nh; i++)
+        M[i * D + i] += 1e-10 * dmax;
+    /* M = C C^T (C lower, in place), then C z = r and C^T gamma = z. */
+    for (int j = 0; j < nh; j++) {
+        double d = M[j * D + j];
+        for (int k = 0; k < j; k++)
+            d -= M[j * D + k] * M[j * D + k];
+        if (!(d > 0.0))
+            return 0;
+        d = sqrt(d);
+        M[j * D + j] = d;
+        for (int i = j + 1; i < nh; i++) {
+            double v = M[i * D + j];
+            for (int k = 0; k < j; k++)
+                v -= M[i * D + k] * M[j * D + k];
+            M[i * D + j] = v / d;
+        }
+    }
+    for (int i = 0; i < nh; i++) {
+        for (int k = 0; k < i; k++)
+            r[i] -= M[i * D + k] * r[k];
+        r[i] /= M[i * D + i];
+    }
+    for (int i = nh - 1; i >= 0; i--) {
+        for (int k = i + 1; k < nh; k++)
+            r[i] -= M[k * D + i] * r[k];
+        r[i] /= M[i * D + i];
+        if (!isfinite(r[i]))
+            return 0;
+    }
+    for (size_t i = 0; i < n3; i++) {
+        double v = fr->gl[i];
+        for (int j = 0; j < nh; j++)
+            v -= r[j] * fr->dg[(size_t)j * n3 + i];
+        fr->xf[i] = v;
+    }
+    return 1;
+}
+
+/* The frame is done (its result is fr->x): residual, vertices in no face,
+ * the translation (as sp04), the output. */
+static void frame_finish(const dtx_mc_plan *p, mc_frame *fr)
+{
+    const int32_t nv = p->nv_t;
+    double want[3];
+    if (fr->iters)
+        *fr->iters = fr->it;
+    if (fr->residual) {
+        double e = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+        *fr->residual = sqrt((e > 0.0 ? e : 0.0) / (double)(p->npairs > 0 ? p->npairs : 1));
+    }
     if (p->nunref > 0) {
         double cref[3] = {0, 0, 0};
         for (int32_t v = 0; v < nv; v++)
             if (p->used[v])
                 for (int c = 0; c < 3; c++)
-                    cref[c] += w->x[3 * (size_t)v + c];
+                    cref[c] += fr->x[3 * (size_t)v + c];
         for (int c = 0; c < 3; c++)
             cref[c] = cref[c] / (nv - p->nunref) - p->rest_centroid_ref[c];
         for (int32_t v = 0; v < nv; v++)
             if (!p->used[v])
                 for (int c = 0; c < 3; c++)
-                    w->x[3 * (size_t)v + c] = p->Vt[3 * (size_t)v + c] + cref[c];
+                    fr->x[3 * (size_t)v + c] = p->Vt[3 * (size_t)v + c] + cref[c];
     }
     if (p->npins == 0) {
         double cs[3], cx[3];
-        centroid(w->x, nv, cx);
+        centroid(fr->x, nv, cx);
         if (p->anchor == DTX_ANCHOR_FOLLOW)
-            centroid(Xs, p->nv_s, cs);
+            centroid(fr->Xs, p->nv_s, cs);
         for (int c = 0; c < 3; c++) {
             want[c] = p->rest_centroid_t[c] +
                       (p->anchor == DTX_ANCHOR_FOLLOW ? p->scale * (cs[c] - p->rest_centroid_s[c])
@@ -1048,10 +1123,147 @@ static void solve_frame(dtx_mc_plan *p, mc_worker *w, const double *Xs, double *
         }
         for (int32_t v = 0; v < nv; v++)
             for (int c = 0; c < 3; c++)
-                Xt[3 * (size_t)v + c] = w->x[3 * (size_t)v + c] + want[c];
+                fr->Xt[3 * (size_t)v + c] = fr->x[3 * (size_t)v + c] + want[c];
     } else {
-        memcpy(Xt, w->x, (size_t)nv * 3 * sizeof *Xt);
+        memcpy(fr->Xt, fr->x, (size_t)nv * 3 * sizeof *fr->Xt);
     }
+}
+
+/* Starts frame f: the source gradients, the frame's part of the right-hand
+ * side and the first step's.  Returns 1 when the frame now waits for a
+ * solve, 0 when it is already done (non-finite source positions: NaN out,
+ * no iteration). */
+static int frame_start(const dtx_mc_plan *p, mc_frame *fr, int64_t f, const double *Xs, double *Xt,
+                      double *residual, int32_t *iters)
+{
+    const int32_t nv = p->nv_t, nfree = p->nfree;
+    fr->Xs = Xs + (size_t)f * 3 * p->nv_s;
+    fr->Xt = Xt + (size_t)f * 3 * nv;
+    fr->residual = residual ? residual + f : NULL;
+    fr->iters = iters ? iters + f : NULL;
+    for (int64_t i = 0; i < 3 * (int64_t)p->nv_s; i++)
+        if (!isfinite(fr->Xs[i])) {
+            for (int64_t k = 0; k < 3 * (int64_t)nv; k++)
+                fr->Xt[k] = NAN;
+            if (fr->residual)
+                *fr->residual = NAN;
+            if (fr->iters)
+                *fr->iters = 0;
+            return 0;
+        }
+    fr->it = 0;
+
+    /* E1's right-hand side (the frame's source gradients) plus the pins'. */
+    dtx_deformation_gradients(p->Vinv, p->Fs, p->nf_s, fr->Xs, fr->S);
+    memcpy(fr->b1, p->bconst, (size_t)nfree * 3 * sizeof *fr->b1);
+    for (int64_t i = 0; i < p->npairs; i++) {
+        int32_t s = p->pairs[2 * i], t = p->pairs[2 * i + 1];
+        const double *S = fr->S + 9 * (size_t)s;
+        for (int j = 0; j < 3; j++) {
+            int32_t fv = p->freeidx[p->Ft[3 * t + j]];
+            const double *g = p->G + 9 * (size_t)t + 3 * j;
+            if (fv < 0)
+                continue;
+            for (int c = 0; c < 3; c++)
+                fr->b1[(size_t)c * nfree + fv] += p->w1 * dot3(g, S + 3 * c);
+        }
+    }
+    for (int64_t i = 0; i < p->npairs; i++) {
+        const double *S = fr->S + 9 * (size_t)p->pairs[2 * i];
+        const double *n = p->N + 3 * (size_t)p->pairs[2 * i + 1];
+        double *sp = fr->Sp + 9 * (size_t)i;
+        for (int c = 0; c < 3; c++) {
+            double sn = dot3(S + 3 * c, n);
+            for (int k = 0; k < 3; k++)
+                sp[3 * c + k] = S[3 * c + k] - sn * n[k];
+        }
+    }
+
+    /* The first step from the rest pose, with the proximity directions
+     * turned by the source gradients (see prox_target_first). */
+    memcpy(fr->x, p->Vt, (size_t)nv * 3 * sizeof *fr->x);
+    for (int32_t v = 0; v < nv; v++)
+        if (p->freeidx[v] < 0 && p->used[v])
+            memcpy(fr->x + 3 * (size_t)v, p->fixedval + 3 * (size_t)v, 3 * sizeof(double));
+    laplacian_apply(p, p->Vt, fr->lx);
+    build_rhs(p, fr, 1);
+    return 1;
+}
+
+/* After a solve (fr->g = G(x), the step from the iterate fr->xf): ends the
+ * frame or prepares the next solve (returns 1).  Iterations as in the file
+ * comment. */
+static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
+{
+    const size_t n3 = 3 * (size_t)p->nfree;
+    const double *g = fr->g;
+    double *df = fr->df + (size_t)fr->head * n3, *dg = fr->dg + (size_t)fr->head * n3;
+    double move = 0.0, r[MC_AA_DEPTH];
+    fr->it++;
+    if (fr->it == 1) {
+        memcpy(fr->xf, g, n3 * sizeof *fr->xf);
+        set_iterate(p, fr, fr->xf);
+        if (!p->nonlinear || fr->it >= p->max_iter) {
+            frame_finish(p, fr);
+            return 0;
+        }
+        fr->e_cur = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
+        fr->nh = fr->head = fr->have_last = 0;
+        return 1;
+    }
+    /* The step f = G(x) - x: its largest entry, the differences of
+     * successive f and G(x) into history slot head, and f, G(x) kept as fl,
+     * gl (written also when the frame stops here, unused then). */
+    for (size_t i = 0; i < n3; i++) {
+        double f = g[i] - fr->xf[i], d = fabs(f);
+        move = d > move ? d : move;
+        if (fr->have_last) {
+            df[i] = f - fr->fl[i];
+            dg[i] = g[i] - fr->gl[i];
+        }
+        fr->fl[i] = f;
+        fr->gl[i] = g[i];
+    }
+    if (!(move > p->tol_abs) || fr->it >= p->max_iter) {
+        set_iterate(p, fr, g);
+        frame_finish(p, fr);
+        return 0;
+    }
+    if (fr->have_last) {
+        /* The new column's Gram entries and every column's product with f,
+         * in one pass (each sum in index order). */
+        double gnew[MC_AA_DEPTH];
+        int h = fr->head;
+        fr->nh += fr->nh < MC_AA_DEPTH;
+        for (int j = 0; j < fr->nh; j++)
+            gnew[j] = r[j] = 0.0;
+        for (size_t i = 0; i < n3; i++)
+            for (int j = 0; j < fr->nh; j++) {
+                double dj = fr->df[(size_t)j * n3 + i];
+                gnew[j] += df[i] * dj;
+                r[j] += dj * fr->fl[i];
+            }
+        for (int j = 0; j < fr->nh; j++) {
+            fr->gram[h * MC_AA_DEPTH + j] = gnew[j];
+            fr->gram[j * MC_AA_DEPTH + h] = gnew[j];
+        }
+        fr->head = (h + 1) % MC_AA_DEPTH;
+    }
+    fr->have_last = 1;
+    if (fr->nh > 0 && anderson(fr, fr->nh, n3, r)) {
+        double e_acc;
+        set_iterate(p, fr, fr->xf);
+        e_acc = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
+        if (e_acc < fr->e_cur) {
+            fr->e_cur = e_acc;
+            return 1;
+        }
+        fr->nh = fr->head = 0;
+    }
+    memcpy(fr->xf, g, n3 * sizeof *fr->xf);
+    set_iterate(p, fr, fr->xf);
+    fr->e_cur = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
+    return 1;
 }
 
 dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, double *Xt,
@@ -1063,11 +1275,30 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t f = 0; f < nframes; f++) {
         int t = 0;
+        mc_worker *w;
+        mc_frame *fr;
 #ifdef _OPENMP
         t = omp_get_thread_num();
 #endif
-        solve_frame(p, &p->workers[t], Xs + (size_t)f * 3 * p->nv_s, Xt + (size_t)f * 3 * p->nv_t,
-                    residual ? residual + f : NULL, iterations ? iterations + f : NULL);
+        w = &p->workers[t];
+        fr = &w->fr;
+        if (!frame_start(p, fr, f, Xs, Xt, residual, iterations))
+            continue;
+        do {
+            if (!cholmod_solve2(CHOLMOD_A, p->L, w->B, NULL, &w->X, NULL, &w->Y, &w->E,
+                                &w->cc)) {
+                /* Out of memory for the solve's workspace: the frame is
+                 * reported as failed rather than stopping the others. */
+                for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
+                    fr->Xt[i] = NAN;
+                if (fr->residual)
+                    *fr->residual = NAN;
+                if (fr->iters)
+                    *fr->iters = fr->it;
+                break;
+            }
+            fr->g = w->X->x;
+        } while (frame_step(p, fr));
     }
     return DTX_OK;
 }
