@@ -1,0 +1,513 @@
+/*
+ * bench_mc.c: figures for scripts/bench-multicomponent.sh (printed, never
+ * asserted): the multicomponent method (Zhou, Xu, Tong & Desbrun 2010) on a
+ * shattered target the size of the paper's pebble camel (750 stones, 51,000
+ * vertices, 99,000 triangles; 54.6 s correspondence and 14.7 s per frame).
+ *
+ *   dtx_bench_mc DATA_DIR [options]
+ *
+ * DATA_DIR holds source/<src>-reference.obj with poses source/<src>-01.obj,
+ * -02.obj, ..., target/<tgt>-reference.obj and markers.csv (0-based), as the
+ * shared sumner-horse-camel set does.  The target is shattered with
+ * dtx_gen_pebbles and the markers moved to the pebbles (dtx_gen_remap).
+ * Options (defaults in brackets):
+ *   --pieces N       pebbles [750]
+ *   --gap G          crack width, fraction of the diagonal [0.003]
+ *   --thickness T    stone thickness, fraction of the diagonal (0: open
+ *                    patches) [0.005]
+ *   --subdivide L    subdivision levels before shattering [0]
+ *   --eps E          proximity threshold factor [1.5, the paper's]
+ *   --frames N       frames transferred (poses repeated) [all poses]
+ *   --threads LIST   thread counts of the transfer runs, e.g. 1,2 [1,2]
+ *   --max-iter N     Gauss-Newton iterations per frame at most [the default, 30]
+ *   --tol T          stopping tolerance, fraction of the diagonal [the default, 1e-6]
+ *   --no-check       skip the comparison with sp04 on the unbroken target
+ *
+ * Prints: sizes; proximity graph; correspondence seconds (wall and CPU;
+ * the proximity graph and the E_R triangle pairs, which it builds first,
+ * also timed apart on the target as given); plan seconds (and the
+ * factorisation alone); per-frame transfer seconds (wall and CPU of all
+ * threads) and Gauss-Newton iterations at each thread count, and whether
+ * the results are bitwise identical across thread counts; ratios to the
+ * paper's figures; and, unless --no-check, per frame the RMS distance of
+ * each pebble vertex from sp04's result on the unbroken target at its
+ * mapped vertex (mean offset removed, % of the diagonal) and the median
+ * relative change of the proximity-pair lengths.  The machine is shared:
+ * compare CPU seconds, or runs made one after the other.
+ */
+#include "dtx_core.h"
+#include "generate.h"
+#include "meshfile.h"
+#include "proximity.h"
+
+#include <dirent.h>
+#include <math.h>
+#include <omp.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <time.h>
+
+#define PAPER_CORR_S 54.56
+#define PAPER_FRAME_S 14.72
+#define MAX_THREAD_RUNS 8
+
+typedef struct {
+    char src_name[256], tgt_name[256];
+    dtx_mesh src, tgt;
+    dtx_markers mk;
+    int nposes;
+    double *poses; /* nposes x nv_s x 3 */
+} dataset;
+
+typedef struct {
+    int pieces, subdivide, frames, check, max_iter;
+    double gap, thickness, eps, tol;
+    int nthreads, threads[MAX_THREAD_RUNS];
+} options;
+
+static double cpu_seconds(void)
+{
+    struct timespec ts;
+    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
+        return 0.0;
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+static void die(const dtx_error *e)
+{
+    fprintf(stderr, "dtx_bench_mc: %s\n", e->msg);
+    exit(1);
+}
+
+static void die_msg(const char *what, const char *path)
+{
+    fprintf(stderr, "dtx_bench_mc: %s: %s\n", path, what);
+    exit(1);
+}
+
+static void *xmalloc(size_t n, size_t size)
+{
+    void *p = dtx_alloc(n, size, 0);
+    if (!p) {
+        fprintf(stderr, "dtx_bench_mc: out of memory (%zu x %zu bytes)\n", n, size);
+        exit(1);
+    }
+    return p;
+}
+
+static void load(const char *path, dtx_mesh *m)
+{
+    dtx_error e;
+    if (dtx_obj_read(path, m, NULL, &e) != DTX_OK)
+        die(&e);
+}
+
+/* The name before "-reference.obj" of the one such file in dir/sub. */
+static void find_reference(const char *dir, const char *sub, char *name, size_t size)
+{
+    static const char suffix[] = "-reference.obj";
+    char path[1200];
+    DIR *d;
+    struct dirent *ent;
+    int found = 0;
+    snprintf(path, sizeof path, "%s/%s", dir, sub);
+    d = opendir(path);
+    if (!d)
+        die_msg("cannot open the directory", path);
+    while ((ent = readdir(d)) != NULL) {
+        size_t n = strlen(ent->d_name), ns = sizeof suffix - 1;
+        if (n > ns && n - ns < size && strcmp(ent->d_name + n - ns, suffix) == 0) {
+            if (found++)
+                die_msg("more than one *-reference.obj", path);
+            memcpy(name, ent->d_name, n - ns);
+            name[n - ns] = '\0';
+        }
+    }
+    closedir(d);
+    if (!found)
+        die_msg("no *-reference.obj", path);
+}
+
+static void load_dataset(const char *dir, dataset *ds)
+{
+    char path[1600];
+    dtx_error e;
+    memset(ds, 0, sizeof *ds);
+    find_reference(dir, "source", ds->src_name, sizeof ds->src_name);
+    find_reference(dir, "target", ds->tgt_name, sizeof ds->tgt_name);
+    snprintf(path, sizeof path, "%s/source/%s-reference.obj", dir, ds->src_name);
+    load(path, &ds->src);
+    snprintf(path, sizeof path, "%s/target/%s-reference.obj", dir, ds->tgt_name);
+    load(path, &ds->tgt);
+    snprintf(path, sizeof path, "%s/markers.csv", dir);
+    if (dtx_markers_read_csv(path, 0, &ds->mk, &e) != DTX_OK)
+        die(&e);
+    for (;;) {
+        FILE *f;
+        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, ds->nposes + 1);
+        if (!(f = fopen(path, "r")))
+            break;
+        fclose(f);
+        ds->nposes++;
+    }
+    if (ds->nposes == 0) {
+        snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
+        die_msg("no numbered poses (expected this file and following ones)", path);
+    }
+    ds->poses = xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
+    for (int k = 0; k < ds->nposes; k++) {
+        dtx_mesh m;
+        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
+        load(path, &m);
+        if (m.nv != ds->src.nv)
+            die_msg("vertex count differs from the reference", path);
+        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
+        dtx_mesh_free(&m);
+    }
+}
+
+static void free_dataset(dataset *ds)
+{
+    dtx_mesh_free(&ds->src);
+    dtx_mesh_free(&ds->tgt);
+    dtx_markers_free(&ds->mk);
+    free(ds->poses);
+}
+
+static int cmp_dbl(const void *x, const void *y)
+{
+    double a = *(const double *)x, b = *(const double *)y;
+    return (a > b) - (a < b);
+}
+
+/* RMS over the vertices v of a (na vertices, map[v] >= 0) of |a_v -
+ * b_map[v]| after removing the mean offset, over diag. */
+static double rms_mapped(const double *a, int32_t na, const double *b, const int32_t *map,
+                         double diag)
+{
+    double ma[3] = {0, 0, 0}, mb[3] = {0, 0, 0}, s2 = 0.0;
+    int32_t n = 0;
+    for (int32_t v = 0; v < na; v++) {
+        if (map[v] < 0)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            ma[k] += a[3 * (size_t)v + k];
+            mb[k] += b[3 * (size_t)map[v] + k];
+        }
+        n++;
+    }
+    if (n == 0)
+        return 0.0;
+    for (int k = 0; k < 3; k++) {
+        ma[k] /= n;
+        mb[k] /= n;
+    }
+    for (int32_t v = 0; v < na; v++) {
+        if (map[v] < 0)
+            continue;
+        for (int k = 0; k < 3; k++) {
+            double d = (a[3 * (size_t)v + k] - ma[k]) - (b[3 * (size_t)map[v] + k] - mb[k]);
+            s2 += d * d;
+        }
+    }
+    return sqrt(s2 / n) / diag;
+}
+
+/* Median over the proximity pairs of |l - l0| / l0 in frame x. */
+static double median_pair_change(const dtx_proximity *prox, const double *x, double *scratch)
+{
+    if (prox->npairs == 0)
+        return 0.0;
+    for (int64_t i = 0; i < prox->npairs; i++) {
+        const double *a = x + 3 * (size_t)prox->pairs[2 * i];
+        const double *b = x + 3 * (size_t)prox->pairs[2 * i + 1];
+        double d = sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                        (a[2] - b[2]) * (a[2] - b[2]));
+        double l0 = prox->rest_len[i] > 0 ? prox->rest_len[i] : 1.0;
+        scratch[i] = fabs(d - prox->rest_len[i]) / l0;
+    }
+    qsort(scratch, (size_t)prox->npairs, sizeof *scratch, cmp_dbl);
+    return scratch[prox->npairs / 2];
+}
+
+static void summary3(const char *what, const double *v, int n, double scale, const char *unit)
+{
+    double lo, hi, s = 0.0;
+    if (n < 1)
+        return;
+    lo = hi = v[0];
+    for (int i = 0; i < n; i++) {
+        lo = v[i] < lo ? v[i] : lo;
+        hi = v[i] > hi ? v[i] : hi;
+        s += v[i];
+    }
+    printf("  %-34s min %.3f  mean %.3f  max %.3f %s\n", what, scale * lo, scale * s / n,
+           scale * hi, unit);
+}
+
+static void usage(void)
+{
+    fprintf(stderr,
+            "usage: dtx_bench_mc DATA_DIR [--pieces N] [--gap G] [--thickness T] "
+            "[--subdivide L]\n"
+            "                    [--eps E] [--frames N] [--threads 1,2] [--max-iter N] [--tol T]\n"
+            "                    [--no-check]\n");
+    exit(2);
+}
+
+static void parse(int argc, char **argv, options *o)
+{
+    o->pieces = 750;
+    o->gap = 0.003;
+    o->thickness = 0.005;
+    o->subdivide = 0;
+    o->eps = 1.5;
+    o->frames = 0;
+    o->check = 1;
+    o->max_iter = 0;
+    o->tol = -1.0;
+    o->nthreads = 2;
+    o->threads[0] = 1;
+    o->threads[1] = 2;
+    for (int i = 2; i < argc; i++) {
+        const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
+        if (strcmp(a, "--no-check") == 0) {
+            o->check = 0;
+            continue;
+        }
+        if (!v)
+            usage();
+        i++;
+        if (strcmp(a, "--pieces") == 0)
+            o->pieces = atoi(v);
+        else if (strcmp(a, "--gap") == 0)
+            o->gap = atof(v);
+        else if (strcmp(a, "--thickness") == 0)
+            o->thickness = atof(v);
+        else if (strcmp(a, "--subdivide") == 0)
+            o->subdivide = atoi(v);
+        else if (strcmp(a, "--eps") == 0)
+            o->eps = atof(v);
+        else if (strcmp(a, "--frames") == 0)
+            o->frames = atoi(v);
+        else if (strcmp(a, "--max-iter") == 0)
+            o->max_iter = atoi(v);
+        else if (strcmp(a, "--tol") == 0)
+            o->tol = atof(v);
+        else if (strcmp(a, "--threads") == 0) {
+            char *end;
+            const char *s = v;
+            o->nthreads = 0;
+            while (*s && o->nthreads < MAX_THREAD_RUNS) {
+                long t = strtol(s, &end, 10);
+                if (end == s || t < 1 || t > 64)
+                    usage();
+                o->threads[o->nthreads++] = (int)t;
+                s = *end == ',' ? end + 1 : end;
+                if (*end && *end != ',')
+                    usage();
+            }
+            if (o->nthreads == 0)
+                usage();
+        } else
+            usage();
+    }
+    if (o->pieces < 1 || o->frames < 0)
+        usage();
+}
+
+int main(int argc, char **argv)
+{
+    options o;
+    dataset ds;
+    dtx_mesh peb = {0};
+    int32_t *map = NULL, bad;
+    dtx_markers pm = {0};
+    dtx_corr corr, scorr;
+    dtx_corr_params cp;
+    dtx_mc_params prm;
+    dtx_mc_plan *plan = NULL;
+    dtx_mc_info info;
+    dtx_proximity prox = {0};
+    dtx_error e;
+    double t0, c0, t_gen, t_corr, c_corr, t_prox, t_tri, t_plan, diag;
+    double frame_s[MAX_THREAD_RUNS], frame_cpu[MAX_THREAD_RUNS];
+    double *Xs, *Xt[MAX_THREAD_RUNS], *res;
+    int32_t *iters;
+    int nf, max_threads;
+    int identical = 1;
+    int32_t *tri;
+
+    if (argc < 2 || argv[1][0] == '-')
+        usage();
+    parse(argc, argv, &o);
+    dtx_corr_params_default(&cp);
+    dtx_mc_params_default(&prm);
+    prm.eps_factor = o.eps;
+    if (o.max_iter > 0)
+        prm.max_iter = o.max_iter;
+    if (o.tol >= 0.0)
+        prm.tol = o.tol;
+    max_threads = omp_get_max_threads();
+    load_dataset(argv[1], &ds);
+    nf = o.frames > 0 ? o.frames : ds.nposes;
+
+    /* The shattered target and its markers. */
+    t0 = omp_get_wtime();
+    if (dtx_gen_pebbles(&ds.tgt, o.pieces, o.gap, o.thickness, o.subdivide, &peb, &map, &e) !=
+        DTX_OK)
+        die(&e);
+    t_gen = omp_get_wtime() - t0;
+    if (dtx_markers_alloc(&pm, ds.mk.n, &e) != DTX_OK)
+        die(&e);
+    memcpy(pm.src, ds.mk.src, (size_t)ds.mk.n * sizeof *pm.src);
+    memcpy(pm.tgt, ds.mk.tgt, (size_t)ds.mk.n * sizeof *pm.tgt);
+    if (dtx_gen_remap(map, peb.nv, ds.tgt.nv, pm.n, pm.tgt, &bad, &e) != DTX_OK)
+        die(&e);
+    diag = dtx_bbox_diagonal(peb.V, peb.nv);
+
+    printf("%s -> pebble %s: %d pieces, gap %g, thickness %g, subdivide %d, eps %g, max_iter %d, "
+           "tol %g\n",
+           ds.src_name, ds.tgt_name, o.pieces, o.gap, o.thickness, o.subdivide, o.eps, prm.max_iter,
+           prm.tol);
+    printf("  source %d vertices, %d triangles, %d frames (%d poses)\n", (int)ds.src.nv,
+           (int)ds.src.nf, nf, ds.nposes);
+    printf("  target %d vertices, %d triangles (unbroken: %d, %d), %d markers; "
+           "generated in %.2f s\n",
+           (int)peb.nv, (int)peb.nf, (int)ds.tgt.nv, (int)ds.tgt.nf, (int)pm.n, t_gen);
+
+    /* Parts of the correspondence, timed apart (on the target as given: the
+     * correspondence builds them on the normalised target, the same up to
+     * rounding). */
+    t0 = omp_get_wtime();
+    if (dtx_proximity_build(&peb, o.eps, &prox, &e) != DTX_OK)
+        die(&e);
+    t_prox = omp_get_wtime() - t0;
+    tri = xmalloc((size_t)prox.npairs + 1, 2 * sizeof *tri);
+    t0 = omp_get_wtime();
+    if (dtx_proximity_triangle_pairs(&peb, &prox, tri, &e) != DTX_OK)
+        die(&e);
+    t_tri = omp_get_wtime() - t0;
+    free(tri);
+    printf("  components %d, proximity edges %d, proximity pairs %lld\n", (int)prox.ncomp,
+           (int)prox.nedges, (long long)prox.npairs);
+
+    t0 = omp_get_wtime();
+    c0 = cpu_seconds();
+    if (dtx_mc_correspond(&ds.src, &peb, &pm, &cp, o.eps, &corr, &e) != DTX_OK)
+        die(&e);
+    t_corr = omp_get_wtime() - t0;
+    c_corr = cpu_seconds() - c0;
+    printf("  correspondence          %8.3f s  (%d threads; CPU %.3f s; %d solves; %lld pairs, "
+           "%d orphan triangles, fit %.3g%% of the diagonal)\n",
+           t_corr, max_threads, c_corr, corr.solves, (long long)corr.npairs,
+           (int)corr.unmatched_tgt, 100.0 * corr.fit_rms);
+    printf("    of which proximity graph ~%.3f s, E_R triangle pairs ~%.3f s (timed apart)\n",
+           t_prox, t_tri);
+
+    t0 = omp_get_wtime();
+    if (dtx_mc_plan_create(&ds.src, &peb, corr.pairs, corr.npairs, &prm, DTX_ANCHOR_FIXED, NULL,
+                           NULL, 0, &plan, &e) != DTX_OK)
+        die(&e);
+    t_plan = omp_get_wtime() - t0;
+    dtx_mc_plan_info(plan, &info);
+    printf("  plan                    %8.3f s  (factorisation %.3f s); %d orphan triangles, "
+           "%d orphan components\n",
+           t_plan, info.factor_seconds, (int)info.orphan_triangles, (int)info.orphan_components);
+
+    Xs = xmalloc((size_t)nf, 3 * (size_t)ds.src.nv * sizeof *Xs);
+    for (int f = 0; f < nf; f++)
+        memcpy(Xs + (size_t)f * 3 * ds.src.nv, ds.poses + (size_t)(f % ds.nposes) * 3 * ds.src.nv,
+               3 * (size_t)ds.src.nv * sizeof *Xs);
+    res = xmalloc((size_t)nf, sizeof *res);
+    iters = xmalloc((size_t)nf, sizeof *iters);
+    for (int r = 0; r < o.nthreads; r++) {
+        double *it = xmalloc((size_t)nf, sizeof *it);
+        Xt[r] = xmalloc((size_t)nf, 3 * (size_t)peb.nv * sizeof **Xt);
+        memset(Xt[r], 0, (size_t)nf * 3 * peb.nv * sizeof **Xt);
+        omp_set_num_threads(o.threads[r]);
+        t0 = omp_get_wtime();
+        c0 = cpu_seconds();
+        if (dtx_mc_apply(plan, nf, Xs, Xt[r], res, iters, &e) != DTX_OK)
+            die(&e);
+        frame_s[r] = (omp_get_wtime() - t0) / nf;
+        frame_cpu[r] = (cpu_seconds() - c0) / nf;
+        printf("  transfer, %d thread(s)    %8.3f s per frame  (CPU %.3f s per frame; "
+               "%.2f frames/s)\n",
+               o.threads[r], frame_s[r], frame_cpu[r], 1.0 / frame_s[r]);
+        for (int f = 0; f < nf; f++)
+            it[f] = iters[f];
+        summary3("Gauss-Newton iterations per frame", it, nf, 1.0, "");
+        for (int f = 0; f < nf; f++)
+            it[f] = res[f];
+        summary3("residual sqrt(E / pairs)", it, nf, 1.0, "");
+        free(it);
+        if (r > 0 && memcmp(Xt[r], Xt[0], (size_t)nf * 3 * peb.nv * sizeof **Xt) != 0)
+            identical = 0;
+    }
+    omp_set_num_threads(max_threads);
+    if (o.nthreads > 1)
+        printf("  results bitwise identical across thread counts: %s\n", identical ? "yes" : "NO");
+    for (int r = 0; r < o.nthreads; r++)
+        if (o.threads[r] == 2 || o.nthreads == 1)
+            printf("  against the paper (54.6 s, 14.7 s/frame): correspondence %.1fx faster, "
+                   "transfer (%d threads) %.1fx faster; targets 10 s: %s, 0.5 s/frame: %s\n",
+                   PAPER_CORR_S / t_corr, o.threads[r], PAPER_FRAME_S / frame_s[r],
+                   t_corr <= 10.0 ? "met" : "NOT met", frame_s[r] <= 0.5 ? "met" : "NOT met");
+
+    if (o.check) {
+        /* sp04 on the unbroken target, each pebble vertex against its
+         * original vertex. */
+        dtx_sp04_plan *sp = NULL;
+        double *Yt = xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *Yt);
+        double *scratch = xmalloc((size_t)prox.npairs + 1, sizeof *scratch);
+        double *rms = xmalloc((size_t)nf, sizeof *rms), *med = xmalloc((size_t)nf, sizeof *med);
+        if (dtx_sp04_correspond(&ds.src, &ds.tgt, &ds.mk, &cp, &scorr, &e) != DTX_OK)
+            die(&e);
+        if (dtx_sp04_plan_create(&ds.src, &ds.tgt, scorr.pairs, scorr.npairs, DTX_ANCHOR_FIXED,
+                                 NULL, NULL, 0, &sp, &e) != DTX_OK)
+            die(&e);
+        if (dtx_sp04_apply(sp, nf, Xs, Yt, NULL, &e) != DTX_OK)
+            die(&e);
+        for (int f = 0; f < nf; f++) {
+            rms[f] = rms_mapped(Xt[0] + (size_t)f * 3 * peb.nv, peb.nv,
+                                Yt + (size_t)f * 3 * ds.tgt.nv, map, diag);
+            med[f] = median_pair_change(&prox, Xt[0] + (size_t)f * 3 * peb.nv, scratch);
+        }
+        printf("  check against sp04 on the unbroken %s (same markers), per frame:\n", ds.tgt_name);
+        summary3("RMS pebble vertex - sp04 vertex", rms, nf, 100.0, "% of the diagonal");
+        summary3("median proximity-pair change", med, nf, 100.0, "%");
+        {
+            double w = 0.0;
+            int wf = 0;
+            for (int f = 0; f < nf; f++)
+                if (rms[f] > w) {
+                    w = rms[f];
+                    wf = f;
+                }
+            printf("  worst frame %d: RMS %.3f%%, median pair change %.2f%%\n", wf + 1, 100.0 * w,
+                   100.0 * med[wf]);
+        }
+        dtx_sp04_plan_free(&sp);
+        dtx_corr_free(&scorr);
+        free(Yt);
+        free(scratch);
+        free(rms);
+        free(med);
+    }
+
+    for (int r = 0; r < o.nthreads; r++)
+        free(Xt[r]);
+    free(Xs);
+    free(res);
+    free(iters);
+    dtx_mc_plan_free(&plan);
+    dtx_corr_free(&corr);
+    dtx_proximity_free(&prox);
+    dtx_markers_free(&pm);
+    dtx_mesh_free(&peb);
+    free(map);
+    free_dataset(&ds);
+    return 0;
+}
