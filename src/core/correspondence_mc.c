@@ -31,6 +31,7 @@
 #include "correspondence_internal.h"
 #include "dtx_core.h"
 #include "proximity.h"
+#include "vec3.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -38,37 +39,16 @@
 
 #define DTX_PI 3.14159265358979323846
 
-static void sub3(const double *a, const double *b, double *r)
-{
-    r[0] = a[0] - b[0];
-    r[1] = a[1] - b[1];
-    r[2] = a[2] - b[2];
-}
-
-static void cross3(const double *a, const double *b, double *r)
-{
-    r[0] = a[1] * b[2] - a[2] * b[1];
-    r[1] = a[2] * b[0] - a[0] * b[2];
-    r[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
 /* Rest position of triangle f's fourth vertex (as dtx_frame_inverses). */
 static void fourth_vertex(const double *V, const int32_t *F, int32_t f, double *out)
 {
-    const double *a = V + 3 * (size_t)F[3 * f], *b = V + 3 * (size_t)F[3 * f + 1],
-                 *c = V + 3 * (size_t)F[3 * f + 2];
-    double e1[3], e2[3], n[3], len;
-    sub3(b, a, e1);
-    sub3(c, a, e2);
-    cross3(e1, e2, n);
-    len = sqrt(sqrt(dot3(n, n)));
+    const double *a = V + 3 * (size_t)F[3 * f];
+    double e1[3], e2[3], e3[3];
+    sub3(V + 3 * (size_t)F[3 * f + 1], a, e1);
+    sub3(V + 3 * (size_t)F[3 * f + 2], a, e2);
+    fourth_edge(e1, e2, e3);
     for (int k = 0; k < 3; k++)
-        out[k] = a[k] + (len > 0.0 ? n[k] / len : 0.0);
+        out[k] = a[k] + e3[k];
 }
 
 /* Fills q for the tetrahedron (v0, v1, v2, var3) with the rest position p3
@@ -76,21 +56,14 @@ static void fourth_vertex(const double *V, const int32_t *F, int32_t f, double *
 static int make_tet(const double *V, int32_t v0, int32_t v1, int32_t v2, int32_t var3,
                     const double *p3, double scale, dtx__tet *q)
 {
-    double c0[3], c1[3], c2[3], r0[3], r1[3], r2[3], det;
+    double c0[3], c1[3], c2[3], inv[9], det;
     sub3(V + 3 * (size_t)v1, V + 3 * (size_t)v0, c0);
     sub3(V + 3 * (size_t)v2, V + 3 * (size_t)v0, c1);
     sub3(p3, V + 3 * (size_t)v0, c2);
-    cross3(c1, c2, r0);
-    cross3(c2, c0, r1);
-    cross3(c0, c1, r2);
-    det = dot3(c0, r0);
+    det = inverse_of_columns(c0, c1, c2, inv);
     if (!(fabs(det) > 1e-9 * scale * scale * scale))
         return 0;
-    for (int k = 0; k < 3; k++) {
-        q->inv[k] = r0[k] / det;
-        q->inv[3 + k] = r1[k] / det;
-        q->inv[6 + k] = r2[k] / det;
-    }
+    memcpy(q->inv, inv, sizeof inv);
     q->var[0] = v0;
     q->var[1] = v1;
     q->var[2] = v2;
@@ -313,10 +286,7 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
 
     memset(out, 0, sizeof *out);
     memset(&prox, 0, sizeof prox);
-    if (prm->n_closest < 0 || prm->n_closest > 16)
-        return dtx_seterr(err, DTX_EINVAL, "n_closest must be in [0, 16], got %d",
-                          prm->n_closest);
-    st = dtx_markers_validate(markers, src->nv, tgt->nv, "markers", err);
+    st = dtx__corr_check(src, tgt, markers, prm, err);
     if (st != DTX_OK)
         return st;
 
@@ -367,25 +337,10 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         goto fail;
 
     /* Fit: RMS distance of the deformed target's vertices (those in faces)
-     * to the source surface, per vertex then summed in order. */
-    {
-        double sum = 0.0;
-        int32_t n = 0;
-        double *d2v = dtx_alloc((size_t)tgt->nv, sizeof *d2v, 1);
-        if (!d2v)
-            goto nomem;
-#pragma omp parallel for schedule(static)
-        for (int32_t v = 0; v < tgt->nv; v++)
-            if (prox.comp[v] >= 0)
-                dtx_bvh_closest(sbvh, X + 3 * (size_t)v, INFINITY, NULL, NULL, NULL, d2v + v);
-        for (int32_t v = 0; v < tgt->nv; v++)
-            if (prox.comp[v] >= 0) {
-                sum += d2v[v];
-                n++;
-            }
-        free(d2v);
-        out->fit_rms = n > 0 ? sqrt(sum / n) : 0.0;
-    }
+     * to the source surface. */
+    out->fit_rms = dtx__fit_rms(sbvh, X, tgt->nv, prox.comp);
+    if (out->fit_rms < 0.0)
+        goto nomem;
     for (int32_t i = 0; i < tgt->nv; i++)
         for (int k = 0; k < 3; k++)
             X[3 * (size_t)i + k] = X[3 * (size_t)i + k] * diag + center[k];

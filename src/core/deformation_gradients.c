@@ -4,49 +4,10 @@
  * vertex-only gradient operator (Botsch et al. 2006).
  */
 #include "dtx_core.h"
+#include "vec3.h"
 
 #include <math.h>
 #include <string.h>
-
-static void sub3(const double *a, const double *b, double *r)
-{
-    r[0] = a[0] - b[0];
-    r[1] = a[1] - b[1];
-    r[2] = a[2] - b[2];
-}
-
-static void cross3(const double *a, const double *b, double *r)
-{
-    r[0] = a[1] * b[2] - a[2] * b[1];
-    r[1] = a[2] * b[0] - a[0] * b[2];
-    r[2] = a[0] * b[1] - a[1] * b[0];
-}
-
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-/* Inverse of the 3x3 matrix whose COLUMNS are c0, c1, c2, written row-major
- * into inv.  Returns the determinant (0 leaves inv untouched). */
-static double inverse_of_columns(const double *c0, const double *c1, const double *c2,
-                                 double *inv)
-{
-    /* For M = [c0 c1 c2], M^-1 has rows (c1 x c2, c2 x c0, c0 x c1) / det. */
-    double r0[3], r1[3], r2[3], det;
-    cross3(c1, c2, r0);
-    cross3(c2, c0, r1);
-    cross3(c0, c1, r2);
-    det = dot3(c0, r0);
-    if (det == 0.0)
-        return 0.0;
-    for (int k = 0; k < 3; k++) {
-        inv[k] = r0[k] / det;
-        inv[3 + k] = r1[k] / det;
-        inv[6 + k] = r2[k] / det;
-    }
-    return det;
-}
 
 /* Tikhonov-regularised pseudo-inverse (M^T M + delta I)^-1 M^T of the
  * matrix with columns c0, c1, c2, for triangles too thin to invert. */
@@ -88,22 +49,6 @@ static double longest_edge2(const double *e1, const double *e2)
     double d[3] = {e2[0] - e1[0], e2[1] - e1[1], e2[2] - e1[2]};
     double a = dot3(e1, e1), b = dot3(e2, e2), c = dot3(d, d);
     return a > b ? (a > c ? a : c) : (b > c ? b : c);
-}
-
-/* The scaled normal n / sqrt(|n|) of Sumner's fourth vertex (0 for |n| = 0). */
-static void fourth_edge(const double *e1, const double *e2, double *e3)
-{
-    double n[3], len;
-    cross3(e1, e2, n);
-    len = sqrt(dot3(n, n));
-    if (len > 0.0) {
-        double s = 1.0 / sqrt(len);
-        e3[0] = n[0] * s;
-        e3[1] = n[1] * s;
-        e3[2] = n[2] * s;
-    } else {
-        e3[0] = e3[1] = e3[2] = 0.0;
-    }
 }
 
 int32_t dtx_frame_inverses(const double *V, const int32_t *F, int32_t nf, double eps_area,

@@ -59,6 +59,7 @@
  */
 #include "dtx_core.h"
 #include "proximity.h"
+#include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
@@ -161,11 +162,6 @@ struct dtx_mc_plan {
     int nworkers;
     mc_worker *workers;
 };
-
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
 
 static void free_workers(dtx_mc_plan *p)
 {

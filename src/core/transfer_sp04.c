@@ -51,6 +51,7 @@
  * or on how the calls split the sequence.
  */
 #include "dtx_core.h"
+#include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
@@ -274,18 +275,6 @@ static void centroid(const double *X, int32_t n, double *c)
             c[k] += X[3 * (size_t)i + k];
     for (int k = 0; k < 3; k++)
         c[k] /= n;
-}
-
-static double dot3(const double *a, const double *b)
-{
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
-}
-
-static void cross3(const double *a, const double *b, double *r)
-{
-    r[0] = a[1] * b[2] - a[2] * b[1];
-    r[1] = a[2] * b[0] - a[0] * b[2];
-    r[2] = a[0] * b[1] - a[1] * b[0];
 }
 
 /* ------------------------------------------------------------------ */
