@@ -648,6 +648,38 @@ fail:
 /* Common frame of both meshes                                         */
 /* ------------------------------------------------------------------ */
 
+dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
+                           const dtx_markers *markers, const dtx_corr_params *prm,
+                           dtx_error *err)
+{
+    if (prm->n_closest < 0 || prm->n_closest > 16)
+        return dtx_seterr(err, DTX_EINVAL, "n_closest must be in [0, 16], got %d",
+                          prm->n_closest);
+    return dtx_markers_validate(markers, src->nv, tgt->nv, "markers", err);
+}
+
+double dtx__fit_rms(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp)
+{
+    /* Per-vertex distances first, then a serial sum: the figure must not
+     * depend on the thread count. */
+    double sum = 0.0;
+    int32_t used = 0;
+    double *d2v = dtx_alloc((size_t)n, sizeof *d2v, 1);
+    if (!d2v)
+        return -1.0;
+#pragma omp parallel for schedule(static)
+    for (int32_t v = 0; v < n; v++)
+        if (!comp || comp[v] >= 0)
+            dtx_bvh_closest(bvh, X + 3 * (size_t)v, INFINITY, NULL, NULL, NULL, d2v + v);
+    for (int32_t v = 0; v < n; v++)
+        if (!comp || comp[v] >= 0) {
+            sum += d2v[v];
+            used++;
+        }
+    free(d2v);
+    return used > 0 ? sqrt(sum / used) : 0.0;
+}
+
 dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
                                const dtx_markers *markers, int align, double *S0, double *Tn,
                                double center[3], double *diag_out, dtx_error *err)
@@ -714,10 +746,7 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
     dtx_bvh *tbvh = NULL;
     memset(out, 0, sizeof *out);
 
-    if (prm->n_closest < 0 || prm->n_closest > 16)
-        return dtx_seterr(err, DTX_EINVAL, "n_closest must be in [0, 16], got %d",
-                          prm->n_closest);
-    st = dtx_markers_validate(markers, src->nv, tgt->nv, "markers", err);
+    st = dtx__corr_check(src, tgt, markers, prm, err);
     if (st != DTX_OK)
         return st;
 
@@ -766,22 +795,10 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         goto fail;
 
     /* Fit quality: RMS distance of the deformed source to the target surface. */
-    {
-        /* Per-vertex distances first, then a serial sum: the figure must not
-         * depend on the thread count. */
-        double sum = 0.0;
-        double *d2v = dtx_alloc((size_t)src->nv, sizeof *d2v, 1);
-        if (!d2v) {
-            st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
-            goto fail;
-        }
-#pragma omp parallel for schedule(static)
-        for (int32_t v = 0; v < src->nv; v++)
-            dtx_bvh_closest(tbvh, X + 3 * (size_t)v, INFINITY, NULL, NULL, NULL, d2v + v);
-        for (int32_t v = 0; v < src->nv; v++)
-            sum += d2v[v];
-        free(d2v);
-        out->fit_rms = sqrt(sum / src->nv);
+    out->fit_rms = dtx__fit_rms(tbvh, X, src->nv, NULL);
+    if (out->fit_rms < 0.0) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+        goto fail;
     }
     /* Back to the target's coordinates. */
     for (int32_t i = 0; i < src->nv; i++)

@@ -16,6 +16,18 @@ typedef struct {
     double inv[9];
 } dtx__tet;
 
+/* The argument checks both correspondences start with: n_closest in
+ * [0, 16] (DTX_EINVAL) and dtx_markers_validate against the two meshes. */
+dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
+                           const dtx_markers *markers, const dtx_corr_params *prm,
+                           dtx_error *err);
+
+/* RMS distance of the n points X (n x 3) to the surface in bvh, over the
+ * points with comp[v] >= 0 (all of them for comp NULL; 0 when none);
+ * per-point distances in parallel, summed in order, so the same for any
+ * thread count.  -1 when out of memory. */
+double dtx__fit_rms(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp);
+
 /* Puts the source S0 (nv_s x 3, caller-allocated) and the target Tn (nv_t x
  * 3) into one frame: the source aligned on the markers by a similarity
  * transform when align != 0 and there are at least 3 markers, then both
