@@ -73,12 +73,14 @@ run "run $job on $np ranks x $OMP_NUM_THREADS threads" "${mpi[@]}" "$dtx" run "$
 run "validate $result" "$dtx" validate "$result"
 run "render a contact sheet of the result" "$dtx" render "$result" /results/lion/cat-poses \
     -o "$demo/cat-lion.png"
+run "write the job report" "$dtx" report "$result" -o "$demo/report.md"
 
 step="report"
 echo
 echo "demo: done"
 echo "  input:        $h5"
 echo "  result:       $result"
+echo "  report:       $demo/report.md (pictures in $demo/report-pictures/)"
 if [[ -d $demo/lion-obj ]]; then
     echo "  OBJ frames:   $demo/lion-obj/ ($(find "$demo/lion-obj" -name '*.obj' | wc -l) files)"
 else

@@ -5,6 +5,7 @@
  */
 #include "cmd_generate.h"
 #include "cmd_render.h"
+#include "cmd_report.h"
 #include "driver.h"
 #include "dtx_core.h"
 #include "h5layout.h"
@@ -35,6 +36,7 @@ static const char usage_text[] =
     "  dtx validate FILE.h5\n"
     "  dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]   (exit 1 if they differ)\n"
     DTX_RENDER_USAGE
+    DTX_REPORT_USAGE
     DTX_GENERATE_USAGE
     "  dtx version\n";
 
@@ -565,6 +567,8 @@ int main(int argc, char **argv)
         return cmd_diff(argc, argv);
     if (strcmp(argv[1], "render") == 0)
         return dtx_cmd_render(argc, argv);
+    if (strcmp(argv[1], "report") == 0)
+        return dtx_cmd_report(argc, argv);
     if (strcmp(argv[1], "generate") == 0)
         return dtx_cmd_generate(argc, argv);
     if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {

@@ -1,0 +1,487 @@
+/*
+ * cmd_report.c: `dtx report FILE.h5`, a Markdown page a person can read
+ * after a batch run: the run's phases and speed (from the run summary that
+ * `dtx run` writes next to its output, FILE.h5.summary.json), then one
+ * section per result with its provenance (method, target, source sequence,
+ * correspondence, completeness), a contact sheet (drawn by `dtx render`:
+ * source row above the result row) and its per-frame residuals: every
+ * frame for sequences of up to TABLE_MAX frames, otherwise quantiles and
+ * the worst frames.
+ *
+ * The page and each picture are written atomically; on an error no report
+ * is left (pictures already written stay: they are complete files).
+ */
+#include "cmd_report.h"
+
+#include "atomic_file.h"
+#include "cmd_render.h"
+#include "h5layout.h"
+
+#include <cjson/cJSON.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+/* Sequences up to this many frames get a row per frame. */
+#define TABLE_MAX 100
+/* Worst frames listed for longer sequences. */
+#define WORST_N 10
+/* Results reported at most (a larger file gets a note). */
+#define RESULTS_MAX 4096
+
+typedef struct {
+    const char *input, *out, *summary, *count;
+    int no_pictures;
+} report_args;
+
+static int usage(const char *msg)
+{
+    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_REPORT_USAGE);
+    return 2;
+}
+
+static int fail(const dtx_error *err)
+{
+    fprintf(stderr, "dtx: error: %s\n", err->msg);
+    return 1;
+}
+
+static const char *parse_args(int argc, char **argv, report_args *a)
+{
+    memset(a, 0, sizeof *a);
+    for (int i = 2; i < argc; i++) {
+        const char *s = argv[i];
+        const char **slot = NULL;
+        if (strcmp(s, "-o") == 0)
+            slot = &a->out;
+        else if (strcmp(s, "--summary") == 0)
+            slot = &a->summary;
+        else if (strcmp(s, "--count") == 0)
+            slot = &a->count;
+        else if (strcmp(s, "--no-pictures") == 0) {
+            a->no_pictures = 1;
+            continue;
+        } else if (s[0] == '-')
+            return "report: unknown option";
+        else if (!a->input) {
+            a->input = s;
+            continue;
+        } else
+            return "report: more than one input file";
+        if (i + 1 >= argc)
+            return "report: an option is missing its value";
+        *slot = argv[++i];
+    }
+    if (!a->input)
+        return "report needs FILE.h5";
+    if (a->count) {
+        char *end;
+        long n = strtol(a->count, &end, 10);
+        if (*end || end == a->count || n < 1 || n > 1024)
+            return "report: --count must be a number of frames in 1..1024";
+    }
+    return NULL;
+}
+
+/* path minus a final ".h5" (or ".hdf5"), plus suffix, into out. */
+static int derive(const char *path, const char *suffix, char *out, size_t n)
+{
+    size_t len = strlen(path);
+    if (len > 3 && strcmp(path + len - 3, ".h5") == 0)
+        len -= 3;
+    else if (len > 5 && strcmp(path + len - 5, ".hdf5") == 0)
+        len -= 5;
+    return (size_t)snprintf(out, n, "%.*s%s", (int)len, path, suffix) < n ? 0 : -1;
+}
+
+static const char *base_name(const char *path)
+{
+    const char *b = strrchr(path, '/');
+    return b ? b + 1 : path;
+}
+
+/* A file name from an HDF5 path: "/results/lion/cat-poses" ->
+ * "lion-cat-poses"; characters other than letters, digits, '-', '_', '.'
+ * become '_'. */
+static void file_name_of(const char *path, char *out, size_t n)
+{
+    const char *p = strncmp(path, "/results/", 9) == 0 ? path + 9 : path;
+    size_t k = 0;
+    for (; *p && k + 1 < n; p++) {
+        char c = *p;
+        if (c == '/')
+            c = '-';
+        else if (!((c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
+                   c == '-' || c == '_' || c == '.'))
+            c = '_';
+        out[k++] = c;
+    }
+    out[k] = 0;
+}
+
+/* Markdown-safe text: '|' and newlines would break a table cell. */
+static void md_text(FILE *f, const char *s)
+{
+    for (; s && *s; s++) {
+        if (*s == '|')
+            fputs("\\|", f);
+        else if (*s == '\n' || *s == '\r')
+            fputc(' ', f);
+        else
+            fputc(*s, f);
+    }
+}
+
+/* The results of the file: /results/<target>/<sequence> (and results
+ * directly under /results), skipping temporary groups ("." names). */
+static dtx_status list_results(hid_t f, char (*found)[DTX_H5_PATH_MAX], int *n, dtx_error *err)
+{
+    char **tn = NULL;
+    int64_t nt = 0;
+    dtx_status st;
+    *n = 0;
+    if (!dtx_h5_path_exists(f, "/results"))
+        return DTX_OK;
+    st = dtx_h5_list_groups(f, "/results", &tn, &nt, err);
+    for (int64_t i = 0; st == DTX_OK && i < nt; i++) {
+        char tp[DTX_H5_PATH_MAX], probe[DTX_H5_PATH_MAX + 16];
+        char **sn = NULL;
+        int64_t ns = 0;
+        if (tn[i][0] == '.' ||
+            (size_t)snprintf(tp, sizeof tp, "/results/%s", tn[i]) >= sizeof tp)
+            continue;
+        snprintf(probe, sizeof probe, "%s/frame_done", tp);
+        if (dtx_h5_path_exists(f, probe)) {
+            if (*n < RESULTS_MAX)
+                memcpy(found[*n], tp, sizeof tp);
+            (*n)++;
+            continue;
+        }
+        st = dtx_h5_list_groups(f, tp, &sn, &ns, err);
+        for (int64_t j = 0; st == DTX_OK && j < ns; j++) {
+            char rp[DTX_H5_PATH_MAX];
+            if (sn[j][0] == '.' ||
+                (size_t)snprintf(rp, sizeof rp, "%s/%s", tp, sn[j]) >= sizeof rp)
+                continue;
+            snprintf(probe, sizeof probe, "%s/frame_done", rp);
+            if (!dtx_h5_path_exists(f, probe))
+                continue;
+            if (*n < RESULTS_MAX)
+                memcpy(found[*n], rp, sizeof rp);
+            (*n)++;
+        }
+        dtx_h5_free_strings(&sn, ns);
+    }
+    dtx_h5_free_strings(&tn, nt);
+    return st;
+}
+
+/* The run summary (cJSON tree) or NULL when absent; a summary that exists
+ * but does not parse is an error naming it. */
+static dtx_status load_summary(const char *path, int required, cJSON **out, dtx_error *err)
+{
+    FILE *fp;
+    long len;
+    char *text = NULL;
+    *out = NULL;
+    fp = fopen(path, "rb");
+    if (!fp) {
+        if (!required && errno == ENOENT)
+            return DTX_OK;
+        return dtx_seterr(err, DTX_EIO, "%s: cannot open the run summary: %s", path,
+                          strerror(errno));
+    }
+    if (fseek(fp, 0, SEEK_END) != 0 || (len = ftell(fp)) < 0 || len > (64L << 20) ||
+        fseek(fp, 0, SEEK_SET) != 0) {
+        fclose(fp);
+        return dtx_seterr(err, DTX_EIO, "%s: cannot read the run summary (or larger than 64 MiB)",
+                          path);
+    }
+    text = dtx_alloc((size_t)len + 1, 1, 0);
+    if (!text || fread(text, 1, (size_t)len, fp) != (size_t)len) {
+        fclose(fp);
+        free(text);
+        return dtx_seterr(err, DTX_EIO, "%s: cannot read the run summary", path);
+    }
+    fclose(fp);
+    text[len] = 0;
+    *out = cJSON_Parse(text);
+    free(text);
+    if (!*out)
+        return dtx_seterr(err, DTX_EPARSE, "%s: the run summary is not valid JSON", path);
+    return DTX_OK;
+}
+
+static double num(const cJSON *o, const char *key)
+{
+    const cJSON *v = cJSON_GetObjectItemCaseSensitive(o, key);
+    return cJSON_IsNumber(v) ? v->valuedouble : NAN;
+}
+
+/* A table cell: the number with fmt, or "-" when the summary lacks it. */
+static void cell(FILE *f, const char *fmt, double v)
+{
+    fputs("| ", f);
+    if (isfinite(v))
+        fprintf(f, fmt, v);
+    else
+        fputc('-', f);
+    fputc(' ', f);
+}
+
+static void write_run(FILE *f, const cJSON *sum, const char *sum_path)
+{
+    const cJSON *sec = cJSON_GetObjectItemCaseSensitive(sum, "seconds");
+    const cJSON *mode = cJSON_GetObjectItemCaseSensitive(sum, "mode");
+    fprintf(f, "## Run\n\nFrom `%s`", base_name(sum_path));
+    if (cJSON_IsString(mode))
+        fprintf(f, " (%s run)", mode->valuestring);
+    fprintf(f,
+            ".\n\n| ranks | threads per rank | frames | total s | frames/s | read s | "
+            "correspondence s | factor s | transfer s | write s | peak memory MiB |\n"
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+    cell(f, "%.0f", num(sum, "ranks"));
+    cell(f, "%.0f", num(sum, "threads_per_rank"));
+    cell(f, "%.0f", num(sum, "frames"));
+    cell(f, "%.3f", num(sec, "total"));
+    cell(f, "%.1f", num(sum, "frames_per_second"));
+    cell(f, "%.3f", num(sec, "read"));
+    cell(f, "%.3f", num(sec, "correspondence"));
+    cell(f, "%.3f", num(sec, "factor"));
+    cell(f, "%.3f", num(sec, "transfer"));
+    cell(f, "%.3f", num(sec, "write"));
+    cell(f, "%.1f", num(sum, "peak_rss_mb"));
+    fputs("|\n\n", f);
+}
+
+static int cmp_dbl(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* Per-frame residuals: a row per frame, or quantiles and the worst frames. */
+static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64_t T)
+{
+    double *s = NULL;
+    int64_t n = 0;
+    s = dtx_alloc((size_t)T, sizeof *s, 0);
+    if (!s)
+        return;
+    for (int64_t t = 0; t < T; t++)
+        if (done[t] && isfinite(r[t]))
+            s[n++] = r[t];
+    qsort(s, (size_t)n, sizeof *s, cmp_dbl);
+    fprintf(f, "Residual per frame (the method's per-frame solver residual):");
+    if (n == 0) {
+        fprintf(f, " none written.\n\n");
+        free(s);
+        return;
+    }
+    fprintf(f, " min %.4g, median %.4g, max %.4g over %lld frames.\n\n", s[0], s[n / 2],
+            s[n - 1], (long long)n);
+    if (T <= TABLE_MAX) {
+        fprintf(f, "| frame | residual |\n|---:|---:|\n");
+        for (int64_t t = 0; t < T; t++) {
+            if (done[t])
+                fprintf(f, "| %lld | %.6g |\n", (long long)t, r[t]);
+            else
+                fprintf(f, "| %lld | not done |\n", (long long)t);
+        }
+    } else {
+        /* The worst frames, largest first (ties: lower frame first). */
+        int64_t worst[WORST_N];
+        int nw = 0;
+        for (int64_t t = 0; t < T; t++) {
+            int k;
+            if (!done[t] || !isfinite(r[t]))
+                continue;
+            for (k = nw; k > 0 && r[worst[k - 1]] < r[t]; k--)
+                if (k < WORST_N)
+                    worst[k] = worst[k - 1];
+            if (k < WORST_N) {
+                worst[k] = t;
+                if (nw < WORST_N)
+                    nw++;
+            }
+        }
+        fprintf(f, "| quantile | residual |\n|---|---:|\n");
+        for (int q = 0; q <= 4; q++)
+            fprintf(f, "| %d%% | %.6g |\n", 25 * q, s[(n - 1) * q / 4]);
+        fprintf(f, "\nWorst frames:\n\n| frame | residual |\n|---:|---:|\n");
+        for (int k = 0; k < nw; k++)
+            fprintf(f, "| %lld | %.6g |\n", (long long)worst[k], r[worst[k]]);
+    }
+    fputc('\n', f);
+    free(s);
+}
+
+static void write_attr(FILE *f, hid_t h, const char *path, const char *name, const char *label)
+{
+    char *v = NULL;
+    dtx_error e;
+    if (dtx_h5_read_attr_str(h, path, name, &v, &e) == DTX_OK && v && *v) {
+        fprintf(f, "- %s: ", label);
+        md_text(f, v);
+        fputc('\n', f);
+    }
+    free(v);
+}
+
+/* One result's section. */
+static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const char *path,
+                               const char *pic_dir, const char *pic_link, dtx_error *err)
+{
+    dtx_h5_result res;
+    double *r = NULL;
+    uint8_t *done = NULL;
+    int64_t complete = 0, ndone = 0;
+    int32_t nv = 0, nf = 0;
+    char tgt[DTX_H5_PATH_MAX + 16], *tmesh = NULL;
+    dtx_status st;
+
+    memset(&res, 0, sizeof res);
+    if ((st = dtx_h5_result_open(h, path, 0, &res, err)) != DTX_OK)
+        return st;
+    r = dtx_alloc((size_t)res.nframes, sizeof *r, 0);
+    done = dtx_alloc((size_t)res.nframes, 1, 1);
+    if (!r || !done) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        goto done;
+    }
+    if ((st = dtx_h5_result_read_done(&res, done, err)) != DTX_OK)
+        goto done;
+    if (H5Dread(res.residual, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, r) < 0) {
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot read the residuals", path);
+        goto done;
+    }
+    for (int64_t t = 0; t < res.nframes; t++)
+        ndone += done[t] != 0;
+    dtx_h5_read_attr_int(h, path, "complete", &complete, NULL);
+    snprintf(tgt, sizeof tgt, "%s/target", path);
+    dtx_h5_mesh_size(h, tgt, &nv, &nf, NULL);
+    dtx_h5_read_attr_str(h, path, "target_mesh", &tmesh, NULL);
+
+    fprintf(f, "## %s\n\n", path);
+    write_attr(f, h, path, "method", "method");
+    fprintf(f, "- target: %s (%d vertices, %d faces)\n", tmesh ? tmesh : "?", (int)nv, (int)nf);
+    write_attr(f, h, path, "source_sequence", "source sequence");
+    write_attr(f, h, path, "correspondence", "correspondence");
+    write_attr(f, h, path, "parameters", "parameters");
+    write_attr(f, h, path, "dtx_version", "written by dtx");
+    fprintf(f, "- frames: %lld, %lld done, %s\n\n", (long long)res.nframes, (long long)ndone,
+            complete == 1 ? "complete" : "**not complete** (an interrupted run: `dtx run --resume`)");
+
+    if (!a->no_pictures) {
+        char name[DTX_H5_PATH_MAX], png[8192];
+        char *argv[9];
+        int argc = 0, rc;
+        file_name_of(path, name, sizeof name);
+        snprintf(png, sizeof png, "%s/%s.png", pic_dir, name);
+        argv[argc++] = "dtx";
+        argv[argc++] = "render";
+        argv[argc++] = (char *)a->input;
+        argv[argc++] = (char *)path;
+        argv[argc++] = "-o";
+        argv[argc++] = png;
+        if (a->count) {
+            argv[argc++] = "--count";
+            argv[argc++] = (char *)a->count;
+        }
+        argv[argc] = NULL;
+        rc = ndone == res.nframes ? dtx_cmd_render(argc, argv) : -1;
+        if (rc == 0)
+            fprintf(f, "![%s: source above, result below](%s/%s.png)\n\n", path, pic_link, name);
+        else
+            fprintf(f, "(No contact sheet: %s.)\n\n",
+                    rc < 0 ? "frames missing" : "drawing failed, see the message of dtx report");
+    }
+    write_residuals(f, r, done, res.nframes);
+done:
+    free(tmesh);
+    free(r);
+    free(done);
+    dtx_h5_result_close(&res);
+    return st;
+}
+
+int dtx_cmd_report(int argc, char **argv)
+{
+    report_args a;
+    const char *msg;
+    char out[4096], sum_path[4096], pic_dir[4096], (*found)[DTX_H5_PATH_MAX] = NULL;
+    const char *pic_link;
+    hid_t h = H5I_INVALID_HID;
+    cJSON *sum = NULL;
+    dtx_atomic_file af = {0};
+    dtx_error err;
+    dtx_status st;
+    int n = 0;
+
+    if ((msg = parse_args(argc, argv, &a)) != NULL)
+        return usage(msg);
+    if (a.out)
+        snprintf(out, sizeof out, "%s", a.out);
+    else if (derive(a.input, ".report.md", out, sizeof out) != 0)
+        return usage("report: the file name is too long");
+    if ((size_t)snprintf(sum_path, sizeof sum_path, "%s.summary.json", a.input) >= sizeof sum_path)
+        return usage("report: the file name is too long");
+    if (a.summary)
+        snprintf(sum_path, sizeof sum_path, "%s", a.summary);
+    {
+        size_t len = strlen(out);
+        if (len > 3 && strcmp(out + len - 3, ".md") == 0)
+            len -= 3;
+        if ((size_t)snprintf(pic_dir, sizeof pic_dir, "%.*s-pictures", (int)len, out) >=
+            sizeof pic_dir)
+            return usage("report: the report name is too long");
+    }
+    pic_link = base_name(pic_dir);
+
+    found = dtx_alloc(RESULTS_MAX, sizeof *found, 0);
+    if (!found) {
+        st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+        goto done;
+    }
+    if ((st = dtx_h5_open(a.input, MPI_COMM_NULL, 0, &h, &err)) != DTX_OK ||
+        (st = list_results(h, found, &n, &err)) != DTX_OK ||
+        (st = load_summary(sum_path, a.summary != NULL, &sum, &err)) != DTX_OK)
+        goto done;
+    if (n == 0) {
+        st = dtx_seterr(&err, DTX_EFORMAT, "%s: no results under /results to report on", a.input);
+        goto done;
+    }
+    if (!a.no_pictures && mkdir(pic_dir, 0777) != 0 && errno != EEXIST) {
+        st = dtx_seterr(&err, DTX_EIO, "%s: cannot create the pictures directory: %s", pic_dir,
+                        strerror(errno));
+        goto done;
+    }
+    if ((st = dtx_atomic_open(&af, out, &err)) != DTX_OK)
+        goto done;
+    fprintf(af.fp, "# dtx report: %s\n\n", base_name(a.input));
+    fprintf(af.fp, "File `%s`, %d result(s). Written by `dtx report` (dtx %s).\n\n", a.input, n,
+            DTX_VERSION);
+    if (n > RESULTS_MAX)
+        fprintf(af.fp, "Only the first %d results are shown.\n\n", RESULTS_MAX);
+    if (sum)
+        write_run(af.fp, sum, sum_path);
+    else
+        fprintf(af.fp, "No run summary (`%s`) next to the file: timings not shown.\n\n",
+                base_name(sum_path));
+    for (int i = 0; i < n && i < RESULTS_MAX && st == DTX_OK; i++)
+        st = write_result(af.fp, h, &a, found[i], pic_dir, pic_link, &err);
+    if (st == DTX_OK)
+        st = dtx_atomic_commit(&af, &err);
+    else
+        dtx_atomic_abort(&af);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: report: %s\n", out);
+done:
+    cJSON_Delete(sum);
+    free(found);
+    dtx_h5_close(&h, NULL);
+    return st == DTX_OK ? 0 : fail(&err);
+}

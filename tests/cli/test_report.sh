@@ -1,0 +1,88 @@
+#!/usr/bin/env bash
+# `dtx report` on a small cat -> lion result: the page names the method,
+# the target's size, every frame's residual (the same numbers as the file
+# holds), the run's timings from the run summary, and links a contact sheet
+# that exists and is a PNG; without a summary the page says so; bad input
+# (no results, a missing file, an unreadable summary, an unwritable report)
+# gives exit 1 with a message naming the problem and leaves no report.
+set -uo pipefail
+D="$DTX_BUILD/data/sumner-cat-lion"
+W="$DTX_TESTDATA"
+cd "$W" || exit 1
+pass=0 fails=0
+ok() { echo "ok: $1"; pass=$((pass + 1)); }
+bad() { echo "FAILED: $1"; fails=$((fails + 1)); }
+check() { # check DESCRIPTION COMMAND...
+    local what=$1; shift
+    if "$@"; then ok "$what"; else bad "$what"; fi
+}
+# reject PATTERN OUTPUT COMMAND...: exit 1, message matches, OUTPUT absent.
+reject() {
+    local pattern=$1 out=$2 msg rc; shift 2
+    msg=$("$@" 2>&1); rc=$?
+    if [ "$rc" -ne 1 ]; then bad "exit $rc (want 1): $*: $msg"; return; fi
+    if ! grep -qE -- "$pattern" <<<"$msg"; then bad "message lacks /$pattern/: $msg"; return; fi
+    if [ -e "$out" ]; then bad "$out left behind: $*"; return; fi
+    if compgen -G "$(dirname "$out")/.*.tmp-*" > /dev/null; then bad "temporary file left: $*"; return; fi
+    ok "rejected: $msg"
+}
+
+"$DTX" import mesh "$D/source/cat-reference.obj" -o cl.h5 --name cat 2>/dev/null
+"$DTX" import mesh "$D/target/lion-reference.obj" -o cl.h5 --name lion 2>/dev/null
+"$DTX" import sequence "$D/source/cat-01.obj" "$D/source/cat-04.obj" "$D/source/cat-05.obj" \
+    -o cl.h5 --name cat-poses --mesh /meshes/cat 2>/dev/null
+"$DTX" import markers "$D/markers.csv" --index-base 0 -o cl.h5 --name cat-lion \
+    --source /meshes/cat --target /meshes/lion 2>/dev/null
+cat > job.json <<'JOB'
+{"dtx_job": 1, "method": "sp04",
+ "source": {"file": "cl.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
+ "targets": [{"name": "lion", "file": "cl.h5", "mesh": "/meshes/lion",
+              "markers": {"file": "cl.h5", "path": "/markers/cat-lion"}}],
+ "output": {"file": "out.h5"}}
+JOB
+"$DTX" run --quiet job.json || { echo "FAILED: the job did not run"; exit 1; }
+
+check "report written" "$DTX" report out.h5
+M=out.report.md
+check "report file" test -s $M
+check "section of the result" grep -q '^## /results/lion/cat-poses$' $M
+check "method" grep -q '^- method: sp04$' $M
+check "target size" grep -q '^- target: /meshes/lion (5000 vertices, 9996 faces)$' $M
+check "complete" grep -q '^- frames: 3, 3 done, complete$' $M
+check "timings table" grep -qE '^\| [0-9]+ \| [0-9]+ \| 3 \| [0-9.]+ \|' $M
+pic=$(sed -n 's/^!\[.*\](\(.*\))$/\1/p' $M)
+check "picture linked ($pic)" test -n "$pic"
+check "picture is a PNG" test "$(head -c 8 "$pic" 2>/dev/null | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a
+# The residuals on the page are the file's (h5dump when available, else
+# only their count and finiteness).
+rows=$(grep -cE '^\| [0-2] \| [0-9.e+-]+ \|$' $M)
+check "a residual row per frame ($rows)" test "$rows" -eq 3
+if command -v h5dump > /dev/null; then
+    want=$(h5dump -m '%.6g' -d /results/lion/cat-poses/residual -y out.h5 2>/dev/null |
+           sed -n '/DATA {/,/}/p' | grep -oE '[0-9][0-9.e+-]*' | tr '\n' ' ')
+    got=$(grep -E '^\| [0-2] \| [0-9.e+-]+ \|$' $M | awk -F'|' '{gsub(/ /,"",$3); printf "%s ", $3}')
+    check "residuals match the file ($got)" test "$want" = "$got"
+fi
+
+# Options: -o, --no-pictures, without a summary.
+mkdir -p sub
+check "report -o --no-pictures" "$DTX" report out.h5 -o sub/r.md --no-pictures
+check "no picture without pictures" bash -c '! grep -q "^!\[" sub/r.md && [ ! -d sub/r-pictures ]'
+mv out.h5.summary.json saved.json
+check "report without a summary" "$DTX" report out.h5 -o nosum.md --no-pictures
+check "says the summary is missing" grep -q 'No run summary' nosum.md
+check "--summary FILE" "$DTX" report out.h5 -o withsum.md --no-pictures --summary saved.json
+check "timings from --summary" grep -q '^## Run$' withsum.md
+
+# Bad input.
+reject "no results" bad1.md "$DTX" report cl.h5 -o bad1.md --no-pictures
+reject "missing.h5" bad2.md "$DTX" report missing.h5 -o bad2.md
+echo '{"ranks": 2,' > broken.json
+reject "broken.json: the run summary is not valid JSON" bad3.md \
+    "$DTX" report out.h5 -o bad3.md --summary broken.json --no-pictures
+reject "nodir/r.md" nodir/r.md "$DTX" report out.h5 -o nodir/r.md --no-pictures
+msg=$("$DTX" report out.h5 --count 0 2>&1); rc=$?
+check "--count 0 is a usage error ($rc: $msg)" test "$rc" -eq 2
+
+echo "$pass passed, $fails failed"
+[ "$fails" -eq 0 ]
