@@ -8,6 +8,7 @@
 # through sudo when not root. When everything is present it prints one line and
 # takes well under a second. The Python packages (used by helper scripts, not by
 # the build) are optional: failing to install them is a warning, not an error.
+# So is the glTF validator (npm, into build-tools/; needs node and npm).
 set -euo pipefail
 
 die() { echo "setup: error: $*" >&2; exit 1; }
@@ -31,6 +32,22 @@ missing_req=()
 missing_opt=()
 for p in "${required[@]}"; do [[ -n ${installed[$p]:-} ]] || missing_req+=("$p"); done
 for p in "${optional[@]}"; do [[ -n ${installed[$p]:-} ]] || missing_opt+=("$p"); done
+
+# The Khronos glTF validator (npm package gltf-validator), used only by the
+# test of `dtx export --glb`; installed into build-tools/ in the source tree
+# (ignored by git) when node and npm are present. Optional: without it that test
+# is skipped, so a failure here is a warning.
+gltf_validator() {
+    local dir
+    dir=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/build-tools
+    [[ -f $dir/node_modules/gltf-validator/package.json ]] && return 0
+    command -v node > /dev/null && command -v npm > /dev/null || return 0
+    echo "setup: installing gltf-validator (npm) into $dir"
+    mkdir -p "$dir" && npm install --prefix "$dir" --no-audit --no-fund --silent --fetch-retries=1 \
+        gltf-validator@2.0.0-dev.3.10 < /dev/null > /dev/null ||
+        echo "setup: warning: npm install gltf-validator failed; its test will be skipped" >&2
+}
+gltf_validator
 
 missing=("${missing_req[@]}" "${missing_opt[@]}")
 if [[ ${#missing[@]} -eq 0 ]]; then

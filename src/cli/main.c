@@ -3,7 +3,9 @@
  * and the driver, prints messages.  Exit status 0 on success, 1 on any
  * error (with "dtx: error: ..." on stderr), 2 on a usage error.
  */
+#include "cmd_export.h"
 #include "cmd_generate.h"
+#include "cmd_inspect.h"
 #include "cmd_render.h"
 #include "cmd_report.h"
 #include "driver.h"
@@ -32,7 +34,8 @@ static const char usage_text[] =
     "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
     "                     [--source /meshes/A] [--target /meshes/B]\n"
     "  dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]   (alone or under mpirun)\n"
-    "  dtx export FILE.h5 /results/TARGET/SEQUENCE --obj-dir DIR\n"
+    DTX_EXPORT_USAGE
+    DTX_INSPECT_USAGE
     "  dtx validate FILE.h5\n"
     "  dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]   (exit 1 if they differ)\n"
     DTX_RENDER_USAGE
@@ -392,52 +395,6 @@ static int cmd_import_markers(int argc, char **argv)
     return finish_import(out, &f, created, st, &err);
 }
 
-static int cmd_export(int argc, char **argv)
-{
-    char *pos[3];
-    const char *dir = opt(argc, argv, "--obj-dir");
-    dtx_error err;
-    dtx_status st;
-    hid_t f = H5I_INVALID_HID;
-    dtx_h5_result res;
-    dtx_mesh m;
-    char tgt[DTX_H5_PATH_MAX + 16], path[8192];
-    double *X = NULL;
-    const char *base;
-    if (positionals(argc, argv, 2, pos, 3) != 2 || !dir)
-        return usage("export needs FILE.h5, a result path and --obj-dir DIR");
-    memset(&res, 0, sizeof res);
-    memset(&m, 0, sizeof m);
-    st = dtx_h5_open(pos[0], MPI_COMM_NULL, 0, &f, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_result_open(f, pos[1], 0, &res, &err);
-    snprintf(tgt, sizeof tgt, "%s/target", pos[1]);
-    if (st == DTX_OK)
-        st = dtx_h5_read_mesh(f, tgt, &m, &err);
-    if (st == DTX_OK && mkdir(dir, 0777) != 0 && errno != EEXIST)
-        st = dtx_seterr(&err, DTX_EIO, "%s: cannot create directory: %s", dir, strerror(errno));
-    if (st == DTX_OK) {
-        X = dtx_alloc((size_t)m.nv, 3 * sizeof *X, 0);
-        if (!X)
-            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
-    }
-    base = strrchr(pos[1], '/');
-    base = base ? base + 1 : pos[1];
-    for (int64_t i = 0; st == DTX_OK && i < res.nframes; i++) {
-        st = dtx_h5_result_read(&res, i, 1, X, NULL, &err);
-        snprintf(path, sizeof path, "%s/%s-%05lld.obj", dir, base, (long long)i + 1);
-        if (st == DTX_OK)
-            st = dtx_obj_write(path, X, m.nv, m.F, m.nf, "exported by dtx", &err);
-    }
-    if (st == DTX_OK)
-        fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)res.nframes, dir);
-    free(X);
-    dtx_mesh_free(&m);
-    dtx_h5_result_close(&res);
-    dtx_h5_close(&f, NULL);
-    return st == DTX_OK ? 0 : fail(&err);
-}
-
 static int cmd_validate(int argc, char **argv)
 {
     char *report = NULL;
@@ -560,7 +517,9 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "run") == 0)
         return cmd_run(argc, argv);
     if (strcmp(argv[1], "export") == 0)
-        return cmd_export(argc, argv);
+        return dtx_cmd_export(argc, argv);
+    if (strcmp(argv[1], "inspect") == 0)
+        return dtx_cmd_inspect(argc, argv);
     if (strcmp(argv[1], "validate") == 0)
         return cmd_validate(argc, argv);
     if (strcmp(argv[1], "diff") == 0)

@@ -1,0 +1,451 @@
+/*
+ * cmd_export.c: `dtx export`.  Opens a result (/results/T/S) or a sequence
+ * (/sequences/S) of a dtx file with its mesh (the result's target, the
+ * sequence's rest mesh), checks every argument and that a result has all
+ * its frames, then writes what was asked, each file atomically:
+ *
+ *   --obj-rest FILE  the mesh as OBJ (what a PC2 cache is applied to)
+ *   --pc2 FILE       a PC2 point cache, one sample per exported frame
+ *   --glb FILE       glTF 2.0 binary: the mesh, the frames as morph targets
+ *                    and an animation over them
+ *   --obj-dir DIR    one OBJ per exported frame, DIR/<name>-NNNNN.obj with
+ *                    the 1-based frame number
+ *
+ * --stride K exports frames 0, K, 2K, ... to every output (PC2: sample rate
+ * K; glb: frame k at time k*K/fps).  A .glb's animation weights grow as the
+ * square of its frames, so more than --max-frames (default 1024, at most
+ * DTX_GLB_MAX_FRAMES) is refused before anything is written, with the
+ * stride that would fit.
+ */
+#include "cmd_export.h"
+
+#include "gltf.h"
+#include "h5layout.h"
+#include "meshfile.h"
+#include "pc2.h"
+
+#include <errno.h>
+#include <math.h>
+#include <stddef.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define DEFAULT_MAX_FRAMES 1024
+#define DEFAULT_FPS 24.0
+
+typedef struct {
+    const char *input, *item;
+    const char *obj_dir, *obj_rest, *pc2, *glb;
+    const char *stride_s, *fps_s, *start_s, *max_s;
+    int step;
+    /* parsed */
+    int64_t stride;
+    double fps, start_frame;
+    int max_frames;
+} export_args;
+
+/* The frames to export: an open result or sequence. */
+typedef struct {
+    int is_result;
+    dtx_h5_seq seq;
+    dtx_h5_result res;
+    int64_t nframes; /* frames in the file */
+    int32_t nv;
+    int64_t stride;
+} frame_source;
+
+static int usage(const char *msg)
+{
+    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_EXPORT_USAGE);
+    return 2;
+}
+
+static int fail(const dtx_error *err)
+{
+    fprintf(stderr, "dtx: error: %s\n", err->msg);
+    return 1;
+}
+
+/* ------------------------------------------------------------------ */
+/* Arguments                                                           */
+/* ------------------------------------------------------------------ */
+
+/* Parses argv[2..] into *a.  Returns NULL, or a usage message (which may
+ * point into buf). */
+static const char *parse_args(int argc, char **argv, export_args *a, char *buf, size_t n)
+{
+    static const struct {
+        const char *name;
+        size_t off;
+    } valued[] = {
+        {"--obj-dir", offsetof(export_args, obj_dir)},
+        {"--obj-rest", offsetof(export_args, obj_rest)},
+        {"--pc2", offsetof(export_args, pc2)},
+        {"--glb", offsetof(export_args, glb)},
+        {"--stride", offsetof(export_args, stride_s)},
+        {"--fps", offsetof(export_args, fps_s)},
+        {"--start-frame", offsetof(export_args, start_s)},
+        {"--max-frames", offsetof(export_args, max_s)},
+    };
+    int npos = 0;
+    memset(a, 0, sizeof *a);
+    for (int i = 2; i < argc; i++) {
+        const char *s = argv[i];
+        size_t v;
+        for (v = 0; v < sizeof valued / sizeof *valued; v++)
+            if (strcmp(s, valued[v].name) == 0)
+                break;
+        if (v < sizeof valued / sizeof *valued) {
+            const char **slot = (const char **)((char *)a + valued[v].off);
+            if (i + 1 >= argc || argv[i + 1][0] == '\0') {
+                snprintf(buf, n, "export: %s needs a value", s);
+                return buf;
+            }
+            if (*slot) {
+                snprintf(buf, n, "export: %s given twice", s);
+                return buf;
+            }
+            *slot = argv[++i];
+        } else if (strcmp(s, "--step") == 0) {
+            a->step = 1;
+        } else if (s[0] == '-' && s[1] != '\0') {
+            snprintf(buf, n, "export: unknown option %s", s);
+            return buf;
+        } else if (npos == 0) {
+            a->input = s, npos++;
+        } else if (npos == 1) {
+            a->item = s, npos++;
+        } else {
+            snprintf(buf, n, "export: unexpected argument %s", s);
+            return buf;
+        }
+    }
+    if (!a->input || !a->item)
+        return "export needs FILE.h5 and a result or sequence path";
+    if (!a->obj_dir && !a->obj_rest && !a->pc2 && !a->glb)
+        return "export needs at least one of --obj-dir DIR, --obj-rest FILE, --pc2 FILE, "
+               "--glb FILE";
+    if (!a->pc2 && a->start_s)
+        return "export: --start-frame goes with --pc2";
+    if (!a->glb && (a->fps_s || a->max_s || a->step))
+        return "export: --fps, --step and --max-frames go with --glb";
+
+    a->stride = 1;
+    a->fps = DEFAULT_FPS;
+    a->start_frame = 1.0;
+    a->max_frames = DEFAULT_MAX_FRAMES;
+    if (a->stride_s) {
+        char *end;
+        long long v;
+        errno = 0;
+        v = strtoll(a->stride_s, &end, 10);
+        if (errno || *end || end == a->stride_s || v < 1 || v > INT32_MAX)
+            return "export: --stride must be a whole number >= 1";
+        a->stride = v;
+    }
+    if (a->max_s) {
+        char *end;
+        long v;
+        errno = 0;
+        v = strtol(a->max_s, &end, 10);
+        if (errno || *end || end == a->max_s || v < 1 || v > DTX_GLB_MAX_FRAMES) {
+            snprintf(buf, n, "export: --max-frames must be a whole number from 1 to %d",
+                     DTX_GLB_MAX_FRAMES);
+            return buf;
+        }
+        a->max_frames = (int)v;
+    }
+    if (a->fps_s) {
+        char *end;
+        errno = 0;
+        a->fps = strtod(a->fps_s, &end);
+        if (errno || *end || end == a->fps_s || !isfinite(a->fps) || !(a->fps > 0.0))
+            return "export: --fps must be a number > 0";
+    }
+    if (a->start_s) {
+        char *end;
+        errno = 0;
+        a->start_frame = strtod(a->start_s, &end);
+        if (errno || *end || end == a->start_s || !isfinite(a->start_frame) ||
+            fabs(a->start_frame) > 1e7)
+            return "export: --start-frame must be a number (|F| <= 1e7)";
+    }
+    return NULL;
+}
+
+/* ------------------------------------------------------------------ */
+/* The frames                                                          */
+/* ------------------------------------------------------------------ */
+
+static int64_t exported_frames(const frame_source *s)
+{
+    return (s->nframes + s->stride - 1) / s->stride;
+}
+
+/* Exported frame k (file frame k * stride) into X (nv x 3). */
+static dtx_status read_frame(void *ctx, int64_t k, double *X, dtx_error *err)
+{
+    frame_source *s = ctx;
+    int64_t i = k * s->stride;
+    return s->is_result ? dtx_h5_result_read(&s->res, i, 1, X, NULL, err)
+                        : dtx_h5_seq_read(&s->seq, i, 1, X, err);
+}
+
+static void source_close(frame_source *s)
+{
+    dtx_h5_result_close(&s->res);
+    dtx_h5_seq_close(&s->seq);
+}
+
+/* "/results/lion" is a group of results: names its members in the
+ * message. */
+static dtx_status namespace_error(hid_t f, const char *file, const char *path, const char *what,
+                                  dtx_error *err)
+{
+    char **names = NULL, list[512] = "";
+    int64_t n = 0;
+    size_t used = 0;
+    if (dtx_h5_list_groups(f, path, &names, &n, NULL) == DTX_OK) {
+        for (int64_t i = 0; i < n && used + 8 < sizeof list; i++) {
+            int w =
+                snprintf(list + used, sizeof list - used, "%s%s/%s", i ? ", " : "", path, names[i]);
+            used = w < 0 ? used : used + (size_t)w;
+            if (used >= sizeof list)
+                used = sizeof list - 1;
+        }
+        dtx_h5_free_strings(&names, n);
+    }
+    if (n == 0)
+        return dtx_seterr(err, DTX_EINVAL, "%s: %s holds no %s", file, path, what);
+    return dtx_seterr(err, DTX_EINVAL, "%s: %s is a group of %ss, not one; name one: %s", file,
+                      path, what, list);
+}
+
+/* Opens the result or sequence at path and reads its mesh into *mesh. */
+static dtx_status source_open(hid_t f, const char *file, const char *path, frame_source *s,
+                              dtx_mesh *mesh, dtx_error *err)
+{
+    static const struct {
+        const char *prefix, *what;
+    } other[] = {{"/meshes/", "a mesh"},
+                 {"/markers/", "a marker set"},
+                 {"/correspondences/", "a correspondence"}};
+    char sub[DTX_H5_PATH_MAX + 16];
+    dtx_status st;
+    int is_res = strncmp(path, "/results/", 9) == 0, is_seq = strncmp(path, "/sequences/", 11) == 0;
+    if (strlen(path) >= DTX_H5_PATH_MAX)
+        return dtx_seterr(err, DTX_EINVAL, "%s: path too long", file);
+    if (!dtx_h5_path_exists(f, path))
+        return dtx_seterr(err, DTX_EINVAL,
+                          "%s: %s: no such object in the file (dtx inspect %s "
+                          "lists what it holds)",
+                          file, path, file);
+    if (!is_res && !is_seq) {
+        for (size_t i = 0; i < sizeof other / sizeof *other; i++)
+            if (strncmp(path, other[i].prefix, strlen(other[i].prefix)) == 0)
+                return dtx_seterr(err, DTX_EINVAL,
+                                  "%s: %s is %s, not a result or a sequence: it has no frames to "
+                                  "export",
+                                  file, path, other[i].what);
+        return dtx_seterr(err, DTX_EINVAL,
+                          "%s: %s is not a result (/results/...) or a sequence (/sequences/...)",
+                          file, path);
+    }
+    snprintf(sub, sizeof sub, "%s/positions", path);
+    if (!dtx_h5_path_exists(f, sub))
+        return namespace_error(f, file, path, is_res ? "result" : "sequence", err);
+    s->is_result = is_res;
+    if (is_res) {
+        uint8_t *done;
+        st = dtx_h5_result_open(f, path, 0, &s->res, err);
+        if (st != DTX_OK)
+            return st;
+        s->nframes = s->res.nframes;
+        s->nv = s->res.nv;
+        done = dtx_alloc((size_t)s->nframes, 1, 0);
+        if (!done)
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        st = dtx_h5_result_read_done(&s->res, done, err);
+        for (int64_t i = 0; st == DTX_OK && i < s->nframes; i++)
+            if (!done[i])
+                st = dtx_seterr(err, DTX_EINVAL,
+                                "%s: %s is incomplete: frame %lld (0-based) is not done; finish "
+                                "the run first (dtx run --resume)",
+                                file, path, (long long)i);
+        free(done);
+        if (st != DTX_OK)
+            return st;
+        snprintf(sub, sizeof sub, "%s/target", path);
+    } else {
+        st = dtx_h5_seq_open(f, path, &s->seq, err);
+        if (st != DTX_OK)
+            return st;
+        s->nframes = s->seq.nframes;
+        s->nv = s->seq.nv;
+        snprintf(sub, sizeof sub, "%s/rest", path);
+    }
+    st = dtx_h5_read_mesh(f, sub, mesh, err);
+    if (st == DTX_OK && mesh->nv != s->nv)
+        st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has %d vertices but its mesh %s has %d", file,
+                        path, (int)s->nv, sub, (int)mesh->nv);
+    if (st == DTX_OK && s->nframes < 1)
+        st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no frames", file, path);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* Outputs                                                             */
+/* ------------------------------------------------------------------ */
+
+/* An output path must not be a directory (the rename would fail late). */
+static dtx_status check_output(const char *path, dtx_error *err)
+{
+    struct stat sb;
+    if (stat(path, &sb) == 0 && S_ISDIR(sb.st_mode))
+        return dtx_seterr(err, DTX_EINVAL, "%s: is a directory (an output file was expected)",
+                          path);
+    return DTX_OK;
+}
+
+static dtx_status write_pc2(frame_source *s, const export_args *a, double *X, dtx_error *err)
+{
+    dtx_pc2_writer w;
+    int64_t T = exported_frames(s);
+    dtx_status st;
+    if (T > INT32_MAX)
+        return dtx_seterr(err, DTX_ERANGE, "%s: %lld frames; PC2 holds at most %d", a->pc2,
+                          (long long)T, (int)INT32_MAX);
+    st = dtx_pc2_begin(&w, a->pc2, s->nv, (int32_t)T, (float)a->start_frame, (float)s->stride, err);
+    for (int64_t k = 0; st == DTX_OK && k < T; k++) {
+        st = read_frame(s, k, X, err);
+        if (st == DTX_OK)
+            st = dtx_pc2_write_sample(&w, X, err);
+    }
+    if (st == DTX_OK)
+        st = dtx_pc2_finish(&w, err);
+    else
+        dtx_pc2_abort(&w);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %lld frames x %d points -> %s (PC2)\n", (long long)T, (int)s->nv,
+                a->pc2);
+    return st;
+}
+
+static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mesh *mesh,
+                            const char *file, dtx_error *err)
+{
+    dtx_glb_opts o;
+    char source[DTX_H5_PATH_MAX + 4096];
+    const char *name = strrchr(a->item, '/');
+    dtx_status st;
+    memset(&o, 0, sizeof o);
+    o.seconds_per_frame = (double)s->stride / a->fps;
+    o.step = a->step;
+    o.name = name && name[1] ? name + 1 : a->item;
+    o.label_first = 1;
+    o.label_step = s->stride;
+    snprintf(source, sizeof source, "%.4000s:%s", file, a->item);
+    o.source = source;
+    st = dtx_glb_write(a->glb, mesh, exported_frames(s), read_frame, s, &o, err);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %lld frames as morph targets -> %s (glTF binary, %.4g s apart, %s)\n",
+                (long long)exported_frames(s), a->glb, o.seconds_per_frame,
+                a->step ? "STEP" : "LINEAR");
+    return st;
+}
+
+static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx_mesh *mesh,
+                                double *X, dtx_error *err)
+{
+    char path[8192];
+    const char *base = strrchr(a->item, '/');
+    dtx_status st = DTX_OK;
+    int64_t T = exported_frames(s);
+    base = base ? base + 1 : a->item;
+    if (mkdir(a->obj_dir, 0777) != 0 && errno != EEXIST)
+        return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s", a->obj_dir,
+                          strerror(errno));
+    for (int64_t k = 0; st == DTX_OK && k < T; k++) {
+        st = read_frame(s, k, X, err);
+        snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", a->obj_dir, base,
+                 (long long)(k * s->stride + 1));
+        if (st == DTX_OK)
+            st = dtx_obj_write(path, X, mesh->nv, mesh->F, mesh->nf, "exported by dtx", err);
+    }
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)T, a->obj_dir);
+    return st;
+}
+
+/* ------------------------------------------------------------------ */
+/* The command                                                         */
+/* ------------------------------------------------------------------ */
+
+int dtx_cmd_export(int argc, char **argv)
+{
+    export_args a;
+    char ubuf[256];
+    const char *msg = parse_args(argc, argv, &a, ubuf, sizeof ubuf);
+    dtx_error err;
+    dtx_status st;
+    hid_t f = H5I_INVALID_HID;
+    frame_source s;
+    dtx_mesh mesh;
+    double *X = NULL;
+    if (msg)
+        return usage(msg);
+    memset(&s, 0, sizeof s);
+    memset(&mesh, 0, sizeof mesh);
+    s.stride = a.stride;
+
+    /* ---- input, then every check before the first output */
+    st = dtx_h5_open(a.input, MPI_COMM_NULL, 0, &f, &err);
+    if (st == DTX_OK)
+        st = source_open(f, a.input, a.item, &s, &mesh, &err);
+    if (st == DTX_OK && a.glb && exported_frames(&s) > a.max_frames) {
+        int64_t T = exported_frames(&s), k = (s.nframes + a.max_frames - 1) / a.max_frames;
+        double kib = 4.0 * (double)T * (double)T / 1024.0;
+        st = dtx_seterr(&err, DTX_EINVAL,
+                        "%s: %lld frames to export, more than --max-frames %d: a glTF "
+                        "animation of N morph targets stores N x N weights (%.4g %s here); "
+                        "export one frame in %lld with --stride %lld, or raise --max-frames "
+                        "(at most %d)",
+                        a.glb, (long long)T, a.max_frames, kib < 1024.0 ? kib : kib / 1024.0,
+                        kib < 1024.0 ? "KiB" : "MiB", (long long)k, (long long)k,
+                        DTX_GLB_MAX_FRAMES);
+    }
+    if (st == DTX_OK && a.obj_rest)
+        st = check_output(a.obj_rest, &err);
+    if (st == DTX_OK && a.pc2)
+        st = check_output(a.pc2, &err);
+    if (st == DTX_OK && a.glb)
+        st = check_output(a.glb, &err);
+    if (st == DTX_OK) {
+        X = dtx_alloc((size_t)s.nv, 3 * sizeof *X, 0);
+        if (!X)
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+    }
+
+    /* ---- outputs */
+    if (st == DTX_OK && a.obj_rest) {
+        st = dtx_obj_write(a.obj_rest, mesh.V, mesh.nv, mesh.F, mesh.nf,
+                           "rest mesh exported by dtx (apply the PC2 cache to it)", &err);
+        if (st == DTX_OK)
+            fprintf(stderr, "dtx: mesh (%d vertices, %d faces) -> %s\n", (int)mesh.nv, (int)mesh.nf,
+                    a.obj_rest);
+    }
+    if (st == DTX_OK && a.pc2)
+        st = write_pc2(&s, &a, X, &err);
+    if (st == DTX_OK && a.glb)
+        st = write_glb(&s, &a, &mesh, a.input, &err);
+    if (st == DTX_OK && a.obj_dir)
+        st = write_obj_dir(&s, &a, &mesh, X, &err);
+
+    free(X);
+    dtx_mesh_free(&mesh);
+    source_close(&s);
+    dtx_h5_close(&f, NULL);
+    return st == DTX_OK ? 0 : fail(&err);
+}
