@@ -1,0 +1,418 @@
+/*
+ * bbw.c: bounded biharmonic weights by a primal-dual active-set method, one
+ * box-constrained quadratic programme per handle (bbw.h).
+ *
+ * For handle k the programme is: minimise 1/2 x' Q x over x in R^nv with
+ * x(h_j) = delta_jk and 0 <= x <= 1 elsewhere.  Its KKT conditions at a free
+ * vertex i, with the multiplier lambda_i = (Q x)_i (the gradient), are
+ *   0 < x_i < 1 and lambda_i = 0,  or  x_i = 0 and lambda_i >= 0,
+ *   or  x_i = 1 and lambda_i <= 0.
+ * The primal-dual active-set iteration (Hintermueller, Ito & Kunisch 2002)
+ * guesses which vertices sit at a bound, solves the equality-constrained
+ * problem on the others, and revises the guess: a free vertex that left [0,
+ * 1] is fixed at the bound it crossed, a fixed vertex whose multiplier has
+ * the wrong sign is freed.  When the guess stops changing the KKT
+ * conditions hold (up to the tolerances below) and x is the exact minimiser.
+ * Q is not an M-matrix, so convergence is not guaranteed in theory; the
+ * iteration count is capped (dtx_bbw_params.max_iter).
+ *
+ * Two changes to the plain iteration, neither of which changes the answer
+ * (the last iteration is always a plain one that changes nothing):
+ *  - Expansion.  Starting from the unconstrained minimiser, the first step
+ *    fixes every vertex where it is negative, which is too many: the
+ *    bounded weight's support is wider.  Plain PDAS then frees them only
+ *    about two rings per iteration, since a fixed vertex gets a non-zero
+ *    multiplier only within the stencil of Q (the 2-ring) of the free
+ *    region.  So a vertex freed by its multiplier also frees its fixed
+ *    Q-neighbours, each vertex at most once (a vertex freed this way and
+ *    fixed again is left to the plain rule), which bounds the extra work.
+ *  - Islands.  A free vertex whose solution is exactly 0 (cut off from the
+ *    handle by fixed vertices) is fixed at 0: same x, smaller systems.
+ * On the cactus (5, 10 and 20 handles) that takes 946 factorisations
+ * instead of 1,276, of 40% smaller systems on average, for bitwise the
+ * same energies; 11 to 18 iterations per handle.
+ *
+ * Each iteration factors Q on the free vertices from scratch: most vertices
+ * end at the lower bound (a weight vanishes away from its handle), so the
+ * free block shrinks and a fresh factorisation of it is cheaper than
+ * updating one of the whole mesh.
+ */
+#include "bbw.h"
+
+#include "bbw_internal.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+enum { FREE = 0, AT_LO = 1, AT_HI = 2, HANDLE = 3 };
+
+/* A free vertex leaves the box when it is beyond a bound by more than
+ * TOL_X; a fixed vertex is freed when its multiplier has the wrong sign by
+ * more than TOL_LAMBDA times the largest row sum of |Q| (a bound on
+ * |lambda| for x in [0, 1]).  Both keep rounding noise from cycling a
+ * vertex in and out of the active set. */
+#define TOL_X 1e-12
+#define TOL_LAMBDA 1e-13
+
+void dtx_bbw_params_default(dtx_bbw_params *prm)
+{
+    prm->max_iter = 100;
+    prm->normalise = 1;
+}
+
+/* Per-thread scratch, allocated once for all the handles a thread does. */
+typedef struct {
+    cholmod_common cc;
+    int started;
+    cholmod_dense *X, *Y, *E; /* cholmod_solve2's result and workspace, reused */
+    int32_t *idx;             /* nv: index among the free vertices, -1 if fixed */
+    int32_t *fvert;           /* nv: vertex of each free index */
+    unsigned char *state;     /* nv: FREE, AT_LO, AT_HI, HANDLE */
+    double *x;                /* nv: the iterate */
+    double *b;                /* nv: right-hand side on the free vertices */
+    unsigned char *expanded;  /* nv: already freed once by the expansion */
+    unsigned char *mark;      /* nv: to be freed by the expansion */
+    dtx_error err;
+} thread_ws;
+
+static void ws_free(thread_ws *w)
+{
+    if (w->started) {
+        cholmod_free_dense(&w->X, &w->cc);
+        cholmod_free_dense(&w->Y, &w->cc);
+        cholmod_free_dense(&w->E, &w->cc);
+        cholmod_finish(&w->cc);
+    }
+    free(w->idx);
+    free(w->fvert);
+    free(w->state);
+    free(w->x);
+    free(w->b);
+    free(w->expanded);
+    free(w->mark);
+    memset(w, 0, sizeof *w);
+}
+
+static int ws_alloc(thread_ws *w, int32_t nv)
+{
+    memset(w, 0, sizeof *w);
+    dtx__cholmod_start(&w->cc);
+    w->started = 1;
+    w->idx = dtx_alloc((size_t)nv, sizeof *w->idx, 0);
+    w->fvert = dtx_alloc((size_t)nv, sizeof *w->fvert, 0);
+    w->state = dtx_alloc((size_t)nv, 1, 0);
+    w->x = dtx_alloc((size_t)nv, sizeof *w->x, 0);
+    w->b = dtx_alloc((size_t)nv, sizeof *w->b, 0);
+    w->expanded = dtx_alloc((size_t)nv, 1, 0);
+    w->mark = dtx_alloc((size_t)nv, 1, 0);
+    return w->idx && w->fvert && w->state && w->x && w->b && w->expanded && w->mark;
+}
+
+/* Solves for x on the FREE vertices with every other vertex held at its
+ * current value.  Returns DTX_OK or an error in w->err. */
+static dtx_status solve_free(const dtx_csr *Q, int32_t nv, thread_ws *w)
+{
+    int32_t nfree = 0;
+    cholmod_sparse *A = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense B;
+    dtx_status st = DTX_OK;
+
+    for (int32_t i = 0; i < nv; i++) {
+        w->idx[i] = w->state[i] == FREE ? nfree : -1;
+        if (w->state[i] == FREE)
+            w->fvert[nfree++] = i;
+    }
+    if (nfree == 0)
+        return DTX_OK;
+    /* b = -Q(free, fixed) x(fixed). */
+    for (int32_t k = 0; k < nfree; k++) {
+        int32_t v = w->fvert[k];
+        double s = 0.0;
+        for (int64_t p = Q->rowptr[v]; p < Q->rowptr[v + 1]; p++) {
+            int32_t c = Q->col[p];
+            if (w->idx[c] < 0 && w->x[c] != 0.0)
+                s += Q->val[p] * w->x[c];
+        }
+        w->b[k] = -s;
+    }
+    A = dtx__block(Q, w->idx, w->fvert, nfree, &w->cc);
+    if (!A)
+        return dtx_seterr(&w->err, DTX_ENOMEM, "bounded biharmonic weights: out of memory for "
+                          "a %d x %d system", (int)nfree, (int)nfree);
+    L = dtx__factor(A, &w->cc, "bounded biharmonic weights", &w->err);
+    if (!L) {
+        st = w->err.code;
+        goto done;
+    }
+    memset(&B, 0, sizeof B);
+    B.nrow = B.nzmax = B.d = (size_t)nfree;
+    B.ncol = 1;
+    B.x = w->b;
+    B.xtype = CHOLMOD_REAL;
+    B.dtype = CHOLMOD_DOUBLE;
+    if (!cholmod_solve2(CHOLMOD_A, L, &B, NULL, &w->X, NULL, &w->Y, &w->E, &w->cc)) {
+        st = dtx_seterr(&w->err, DTX_ENOMEM, "bounded biharmonic weights: out of memory "
+                        "solving a %d x %d system", (int)nfree, (int)nfree);
+        goto done;
+    }
+    for (int32_t k = 0; k < nfree; k++)
+        w->x[w->fvert[k]] = ((const double *)w->X->x)[k];
+done:
+    cholmod_free_factor(&L, &w->cc);
+    cholmod_free_sparse(&A, &w->cc);
+    return st;
+}
+
+/* The programme of handle k (see the file comment).  Writes x into column
+ * k of W and the unconstrained minimiser (the first iterate) into column k
+ * of U. */
+static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *handles, int32_t m,
+                               int32_t k, int max_iter, double tol_lambda, thread_ws *w,
+                               double *W, double *U, int *iterations, int *converged)
+{
+    int it;
+    dtx_status st;
+
+    for (int32_t i = 0; i < nv; i++) {
+        w->state[i] = FREE;
+        w->x[i] = 0.0;
+        w->expanded[i] = 0;
+        w->mark[i] = 0;
+    }
+    for (int32_t j = 0; j < m; j++)
+        w->state[handles[j]] = HANDLE;
+    w->x[handles[k]] = 1.0;
+    *converged = 0;
+    for (it = 1; it <= max_iter; it++) {
+        int32_t changed = 0;
+        st = solve_free(Q, nv, w);
+        if (st != DTX_OK)
+            return st;
+        if (it == 1)
+            for (int32_t i = 0; i < nv; i++)
+                U[(size_t)i * m + k] = w->x[i];
+
+        /* The primal-dual update.  idx[i] >= 0 still tells which vertices
+         * were free in the solve just done. */
+        for (int32_t i = 0; i < nv; i++) {
+            unsigned char s = w->state[i], t = s;
+            if (s == FREE) {
+                if (w->x[i] < -TOL_X || w->x[i] == 0.0)
+                    t = AT_LO;
+                else if (w->x[i] > 1.0 + TOL_X)
+                    t = AT_HI;
+            } else if (s == AT_LO) {
+                if (dtx__row_dot(Q, i, w->x) < -tol_lambda)
+                    t = FREE;
+            } else if (s == AT_HI) {
+                if (dtx__row_dot(Q, i, w->x) > tol_lambda)
+                    t = FREE;
+            }
+            if (t != s) {
+                changed++;
+                w->state[i] = t;
+            }
+        }
+
+        /* The expansion: the fixed Q-neighbours of the vertices freed by
+         * their multiplier, once per vertex. */
+        for (int32_t i = 0; i < nv; i++) {
+            if (w->state[i] != FREE || w->idx[i] >= 0)
+                continue;
+            for (int64_t p = Q->rowptr[i]; p < Q->rowptr[i + 1]; p++) {
+                int32_t c = Q->col[p];
+                if ((w->state[c] == AT_LO || w->state[c] == AT_HI) && w->idx[c] < 0 &&
+                    !w->expanded[c])
+                    w->mark[c] = 1;
+            }
+        }
+        for (int32_t i = 0; i < nv; i++)
+            if (w->mark[i]) {
+                w->mark[i] = 0;
+                w->expanded[i] = 1;
+                w->state[i] = FREE;
+                changed++;
+            }
+
+        /* The fixed vertices take their bounds now, so that a converged
+         * iterate is exactly on them and the next solve sees them. */
+        for (int32_t i = 0; i < nv; i++) {
+            if (w->state[i] == AT_LO)
+                w->x[i] = 0.0;
+            else if (w->state[i] == AT_HI)
+                w->x[i] = 1.0;
+        }
+        if (changed == 0) {
+            *converged = 1;
+            break;
+        }
+    }
+    *iterations = it > max_iter ? max_iter : it;
+    for (int32_t i = 0; i < nv; i++)
+        W[(size_t)i * m + k] = w->x[i] < 0.0 ? 0.0 : w->x[i] > 1.0 ? 1.0 : w->x[i];
+    return DTX_OK;
+}
+
+dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                   const dtx_bbw_params *prm, double *W, dtx_bbw_info *info, dtx_error *err)
+{
+    dtx__biharmonic sys;
+    dtx_bbw_params defaults;
+    dtx_bbw_info inf;
+    thread_ws *ws = NULL;
+    double *U = NULL, tol_lambda = 0.0;
+    int *iters = NULL, *conv = NULL;
+    int nthreads = omp_get_max_threads();
+    int32_t failed = -1, nv;
+    dtx_status st;
+
+    memset(&inf, 0, sizeof inf);
+    if (info)
+        *info = inf;
+    if (!prm) {
+        dtx_bbw_params_default(&defaults);
+        prm = &defaults;
+    }
+    if (prm->max_iter < 1)
+        return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: max_iter %d (must be "
+                          ">= 1)", prm->max_iter);
+    if (!W)
+        return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: no output array");
+    st = dtx__biharmonic_build(mesh, &sys, err);
+    if (st != DTX_OK)
+        return st;
+    st = dtx__check_handles(&sys, handles, m, err);
+    if (st != DTX_OK)
+        goto done;
+    nv = sys.nv;
+    inf.thin_triangles = sys.nthin;
+    for (int32_t i = 0; i < nv; i++) {
+        double s = 0.0;
+        for (int64_t p = sys.Q.rowptr[i]; p < sys.Q.rowptr[i + 1]; p++)
+            s += fabs(sys.Q.val[p]);
+        tol_lambda = fmax(tol_lambda, s);
+    }
+    tol_lambda *= TOL_LAMBDA;
+
+    if (nthreads > m)
+        nthreads = m;
+    ws = dtx_alloc((size_t)nthreads, sizeof *ws, 1);
+    U = dtx_alloc((size_t)nv * (size_t)m, sizeof *U, 0);
+    iters = dtx_alloc((size_t)m, sizeof *iters, 1);
+    conv = dtx_alloc((size_t)m, sizeof *conv, 1);
+    if (!ws || !U || !iters || !conv)
+        goto nomem;
+    for (int t = 0; t < nthreads; t++)
+        if (!ws_alloc(&ws[t], nv))
+            goto nomem;
+
+    /* One handle per iteration; each thread uses its own CHOLMOD workspace,
+     * and nothing else is shared but the read-only Q and disjoint columns
+     * of W and U. */
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads)
+    for (int32_t k = 0; k < m; k++) {
+        thread_ws *w = &ws[omp_get_thread_num()];
+        dtx_status s = solve_handle(&sys.Q, nv, handles, m, k, prm->max_iter, tol_lambda, w, W,
+                                    U, &iters[k], &conv[k]);
+        if (s != DTX_OK) {
+#pragma omp critical(dtx_bbw_error)
+            if (failed < 0 || k < failed) {
+                failed = k;
+                st = dtx_seterr(err, s, "handle %d (vertex %d): %s", (int)k, (int)handles[k],
+                                w->err.msg);
+            }
+        }
+    }
+    if (failed >= 0)
+        goto done;
+
+    for (int32_t k = 0; k < m; k++) {
+        inf.iterations_max = iters[k] > inf.iterations_max ? iters[k] : inf.iterations_max;
+        inf.iterations_total += iters[k];
+        inf.not_converged += !conv[k];
+    }
+    /* Partition of unity. */
+    inf.sum_min = INFINITY;
+    inf.sum_max = -INFINITY;
+    for (int32_t i = 0; i < nv; i++) {
+        double *row = W + (size_t)i * m, s = 0.0;
+        for (int32_t k = 0; k < m; k++)
+            s += row[k];
+        inf.sum_min = fmin(inf.sum_min, s);
+        inf.sum_max = fmax(inf.sum_max, s);
+        if (s < DTX_BBW_MIN_SUM) {
+            /* The clamped unbounded weights sum to >= max_k u_k >= 1/m. */
+            inf.low_sum++;
+            s = 0.0;
+            for (int32_t k = 0; k < m; k++) {
+                double u = U[(size_t)i * m + k];
+                row[k] = u < 0.0 ? 0.0 : u > 1.0 ? 1.0 : u;
+                s += row[k];
+            }
+        }
+        if (prm->normalise)
+            for (int32_t k = 0; k < m; k++)
+                row[k] /= s;
+    }
+    /* Exact at the handles whatever the rounding of the sums. */
+    for (int32_t j = 0; j < m; j++)
+        for (int32_t k = 0; k < m; k++)
+            W[(size_t)handles[j] * m + k] = j == k ? 1.0 : 0.0;
+    if (info)
+        *info = inf;
+    st = DTX_OK;
+    goto done;
+
+nomem:
+    st = dtx_seterr(err, DTX_ENOMEM, "out of memory for the bounded biharmonic weights of %d "
+                    "handles on %d vertices", (int)m, (int)sys.nv);
+done:
+    if (ws)
+        for (int t = 0; t < nthreads; t++)
+            ws_free(&ws[t]);
+    free(ws);
+    free(U);
+    free(iters);
+    free(conv);
+    dtx__biharmonic_free(&sys);
+    return st;
+}
+
+int32_t dtx_bbw_clamp_normalise(double *W, int32_t nv, int32_t m, double *max_violation)
+{
+    int32_t bad = 0, zero = 0;
+    double worst = 0.0;
+    for (int32_t i = 0; i < nv; i++) {
+        double *row = W + (size_t)i * m, s = 0.0;
+        int out = 0;
+        for (int32_t k = 0; k < m; k++) {
+            double v = row[k];
+            if (v < 0.0) {
+                worst = fmax(worst, -v);
+                out = 1;
+                v = 0.0;
+            } else if (v > 1.0) {
+                worst = fmax(worst, v - 1.0);
+                out = 1;
+                v = 1.0;
+            }
+            row[k] = v;
+            s += v;
+        }
+        bad += out;
+        if (s > 0.0) {
+            for (int32_t k = 0; k < m; k++)
+                row[k] /= s;
+        } else {
+            for (int32_t k = 0; k < m; k++)
+                row[k] = 0.0;
+            zero = 1;
+        }
+    }
+    if (max_violation)
+        *max_violation = worst;
+    return zero ? -1 : bad;
+}

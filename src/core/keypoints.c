@@ -1,0 +1,488 @@
+/*
+ * keypoints.c: greedy key-point selection (keypoints.h).
+ *
+ * Structure: a context holds what does not depend on the key points (the
+ * skinning mesh, the clustering features of the frames, the candidates);
+ * a round fixes the set it starts from and its clustering (fast mode) and
+ * evaluates every remaining candidate in parallel, each thread with its own
+ * workspace allocated before the loop; the part's errors are combined by
+ * the caller's reduce, and the smallest error wins (lowest candidate index
+ * on ties).
+ */
+#include "keypoints.h"
+
+#include "bbw.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+void dtx_kp_params_default(dtx_kp_params *p)
+{
+    memset(p, 0, sizeof *p);
+    p->candidates = 100;
+    p->eps = 0.03;
+    p->max_keys = 40;
+    p->max_sweeps = 10;
+    p->exact = 0;
+    dtx_skin_params_default(&p->skin);
+    p->threads = 0;
+    p->part_index = 0;
+    p->part_count = 1;
+}
+
+void dtx_kp_result_free(dtx_kp_result *res)
+{
+    if (!res)
+        return;
+    free(res->keys);
+    free(res->candidates);
+    free(res->trace);
+    memset(res, 0, sizeof *res);
+}
+
+/* What does not depend on the key points. */
+typedef struct {
+    const dtx_mesh *src;
+    int32_t nv, nframes;
+    const double *X;
+    dtx_skin_mesh *sm;
+    double *feat;  /* nv x 9 nframes */
+    double radius; /* R */
+    dtx_skin_params skin;
+    int exact;
+} kp_ctx;
+
+/* Per-thread workspace for one evaluation with up to mmax key points. */
+typedef struct {
+    double *W;       /* nv x mmax */
+    double *T;       /* nframes x mmax x 12 */
+    double *Q;       /* nv x 3 */
+    int32_t *labels; /* nv */
+    int32_t *handles; /* mmax */
+    dtx_bbw_work *bw;
+} kp_work;
+
+static void work_free(kp_work *w)
+{
+    free(w->W);
+    free(w->T);
+    free(w->Q);
+    free(w->labels);
+    free(w->handles);
+    dtx_bbw_work_free(&w->bw);
+    memset(w, 0, sizeof *w);
+}
+
+static int work_alloc(kp_work *w, const kp_ctx *c, int32_t mmax, const dtx_bbw_incr *incr)
+{
+    memset(w, 0, sizeof *w);
+    w->W = dtx_alloc((size_t)c->nv * (size_t)mmax, sizeof *w->W, 0);
+    w->T = dtx_alloc((size_t)c->nframes * (size_t)mmax * 12, sizeof *w->T, 0);
+    w->Q = dtx_alloc((size_t)c->nv * 3, sizeof *w->Q, 0);
+    w->labels = dtx_alloc((size_t)c->nv, sizeof *w->labels, 0);
+    w->handles = dtx_alloc((size_t)mmax, sizeof *w->handles, 0);
+    w->bw = incr ? dtx_bbw_work_new(incr) : NULL;
+    if (!w->W || !w->T || !w->Q || !w->labels || !w->handles || (incr && !w->bw)) {
+        work_free(w);
+        return -1;
+    }
+    return 0;
+}
+
+/* Radius of the rest mesh about its bounding-box centre. */
+static double rest_radius(const dtx_mesh *m)
+{
+    double lo[3], hi[3], c[3], r2 = 0.0;
+    for (int k = 0; k < 3; k++)
+        lo[k] = hi[k] = m->V[k];
+    for (int32_t i = 1; i < m->nv; i++)
+        for (int k = 0; k < 3; k++) {
+            double v = m->V[3 * (size_t)i + k];
+            lo[k] = v < lo[k] ? v : lo[k];
+            hi[k] = v > hi[k] ? v : hi[k];
+        }
+    for (int k = 0; k < 3; k++)
+        c[k] = 0.5 * (lo[k] + hi[k]);
+    for (int32_t i = 0; i < m->nv; i++) {
+        const double *v = m->V + 3 * (size_t)i;
+        double d2 = (v[0] - c[0]) * (v[0] - c[0]) + (v[1] - c[1]) * (v[1] - c[1]) +
+                    (v[2] - c[2]) * (v[2] - c[2]);
+        r2 = d2 > r2 ? d2 : r2;
+    }
+    return sqrt(r2);
+}
+
+/* The error of weights W (nv x m, rows summing to 1) with the clustering
+ * labels (k clusters): fit every frame, skin, mean vertex distance / R. */
+static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, const int32_t *labels,
+                               int32_t k, kp_work *w, double *out, dtx_error *e)
+{
+    dtx_skin_params sp = c->skin;
+    dtx_skin_fit *fit = NULL;
+    dtx_skin_out o;
+    dtx_status st;
+    double sum = 0.0;
+    sp.threads = 1;
+    sp.nclusters = k;
+    if ((st = dtx_skin_fit_create(c->sm, m, W, labels, k, &sp, &fit, e)) != DTX_OK)
+        return st;
+    memset(&o, 0, sizeof o);
+    o.T = w->T;
+    st = dtx_skin_fit_frames(fit, c->nframes, c->X, &sp, &o, e);
+    dtx_skin_fit_free(&fit);
+    if (st != DTX_OK)
+        return st;
+    for (int32_t f = 0; f < c->nframes; f++) {
+        const double *x = c->X + (size_t)f * 3 * (size_t)c->nv;
+        dtx_skin_apply(c->nv, m, c->src->V, W, 1, w->T + (size_t)f * (size_t)m * 12, 1, w->Q);
+        for (int32_t i = 0; i < c->nv; i++) {
+            const double *q = w->Q + 3 * (size_t)i, *y = x + 3 * (size_t)i;
+            sum += sqrt((q[0] - y[0]) * (q[0] - y[0]) + (q[1] - y[1]) * (q[1] - y[1]) +
+                        (q[2] - y[2]) * (q[2] - y[2]));
+        }
+    }
+    *out = sum / ((double)c->nframes * (double)c->nv) / c->radius;
+    return isfinite(*out) ? DTX_OK
+                          : dtx_seterr(e, DTX_ENONFINITE, "key points: non-finite fit error");
+}
+
+/* Clustering of the vertices for weights W (nv x m) into k clusters. */
+static dtx_status cluster(const kp_ctx *c, int32_t m, const double *W, int32_t k, int threads,
+                          int32_t *labels, dtx_error *e)
+{
+    dtx_skin_params sp = c->skin;
+    sp.nclusters = k;
+    sp.threads = threads;
+    return dtx_skin_cluster(c->nv, m, W, c->nframes, c->feat, &sp, labels, e);
+}
+
+/* Exact evaluation of a handle set: bounded weights, its own clustering. */
+static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m, int threads,
+                             kp_work *w, double *out, dtx_error *e)
+{
+    dtx_status st = dtx_bbw(c->src, handles, m, NULL, w->W, NULL, e);
+    if (st == DTX_OK)
+        st = cluster(c, m, w->W, m, threads, w->labels, e);
+    if (st == DTX_OK)
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
+    return st;
+}
+
+/* One round: errs[i] for every candidate i not in the set (flag inset[i]
+ * == 0) that this part owns; +INFINITY elsewhere.  replace_j < 0: add the
+ * candidate; else replace handle replace_j by it.  Fast mode: labels (nv)
+ * is the round's clustering with k clusters. */
+static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+                       int32_t ncand, const unsigned char *inset, int replace_j,
+                       const int32_t *labels, int32_t k, kp_work *ws, int nthreads,
+                       const dtx_kp_params *p, double *errs, int64_t *evals, int64_t *failed)
+{
+    const int32_t m = dtx_bbw_incr_count(incr);
+    const int32_t mm = replace_j < 0 ? m + 1 : m;
+    int64_t ev = 0, fl = 0;
+    for (int32_t i = 0; i < ncand; i++)
+        errs[i] = INFINITY;
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl)
+    for (int32_t i = 0; i < ncand; i++) {
+        kp_work *w = &ws[omp_get_thread_num()];
+        dtx_error e;
+        dtx_status st;
+        double v = INFINITY;
+        if (inset[i] || i % p->part_count != p->part_index)
+            continue;
+        ev++;
+        if (c->exact) {
+            memcpy(w->handles, dtx_bbw_incr_handles(incr), (size_t)m * sizeof *w->handles);
+            w->handles[replace_j < 0 ? m : replace_j] = cand[i];
+            st = eval_exact(c, w->handles, mm, 1, w, &v, &e);
+        } else {
+            if (replace_j < 0)
+                st = dtx_bbw_incr_weights_add(incr, cand[i], w->W, w->bw, &e);
+            else
+                st = dtx_bbw_incr_weights_replace(incr, replace_j, cand[i], w->W, w->bw, &e);
+            if (st == DTX_OK && dtx_bbw_clamp_normalise(w->W, c->nv, mm, NULL) < 0)
+                st = DTX_ESOLVE;
+            if (st == DTX_OK)
+                st = eval_weights(c, mm, w->W, labels, k, w, &v, &e);
+        }
+        if (st != DTX_OK) {
+            v = INFINITY;
+            fl++;
+        }
+        errs[i] = v;
+    }
+    *evals += ev;
+    *failed += fl;
+}
+
+/* The smallest finite entry (lowest index on ties), or -1. */
+static int32_t argmin(const double *v, int32_t n)
+{
+    int32_t b = -1;
+    for (int32_t i = 0; i < n; i++)
+        if (isfinite(v[i]) && (b < 0 || v[i] < v[b]))
+            b = i;
+    return b;
+}
+
+/* The round's clustering (fast mode): the current set's clamped weights. */
+static dtx_status round_labels(const kp_ctx *c, const dtx_bbw_incr *incr, int32_t k,
+                               int threads, kp_work *w, dtx_error *e)
+{
+    const int32_t m = dtx_bbw_incr_count(incr);
+    memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
+    if (dtx_bbw_clamp_normalise(w->W, c->nv, m, NULL) < 0)
+        return dtx_seterr(e, DTX_ESOLVE, "key points: weights of the current set sum to 0");
+    return cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e);
+}
+
+static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error *err)
+{
+    if (r->ntrace == *cap) {
+        int32_t nc = *cap ? 2 * *cap : 16;
+        double *t = realloc(r->trace, (size_t)nc * sizeof *t);
+        if (!t)
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        r->trace = t;
+        *cap = nc;
+    }
+    r->trace[r->ntrace++] = v;
+    return DTX_OK;
+}
+
+dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const double *X,
+                                const dtx_kp_params *p, dtx_kp_result *res, dtx_error *err)
+{
+    kp_ctx c;
+    dtx_bbw_incr *incr = NULL;
+    kp_work *ws = NULL;
+    double *radius = NULL, *errs = NULL;
+    unsigned char *inset = NULL;
+    int32_t *cand = NULL, nfaced = 0, tcap = 0, mmax;
+    int nthreads;
+    dtx_status st = DTX_OK;
+
+    memset(res, 0, sizeof *res);
+    memset(&c, 0, sizeof c);
+    if (!src || !X || !p || nframes < 1)
+        return dtx_seterr(err, DTX_EINVAL, "key points: missing mesh or frames");
+    if (p->candidates < 1 || !(p->eps >= 0.0) || p->max_keys < 1 || p->max_sweeps < 0 ||
+        p->part_count < 1 || p->part_index < 0 || p->part_index >= p->part_count ||
+        (p->part_count > 1 && !p->reduce))
+        return dtx_seterr(err, DTX_EINVAL,
+                          "key points: parameters out of range (candidates >= 1, eps >= 0, "
+                          "max_keys >= 1, max_sweeps >= 0, a reduce function for several parts)");
+    if ((st = dtx_mesh_validate(src, "key points: source mesh", err)) != DTX_OK)
+        return st;
+    for (int64_t i = 0; i < (int64_t)nframes * 3 * src->nv; i++)
+        if (!isfinite(X[i]))
+            return dtx_seterr(err, DTX_ENONFINITE,
+                              "key points: frame %lld, vertex %lld: non-finite coordinate",
+                              (long long)(i / (3 * (int64_t)src->nv)),
+                              (long long)(i % (3 * (int64_t)src->nv) / 3));
+    c.src = src;
+    c.nv = src->nv;
+    c.nframes = nframes;
+    c.X = X;
+    c.skin = p->skin;
+    c.exact = p->exact;
+    c.radius = rest_radius(src);
+    if (!(c.radius > 0.0))
+        return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
+    nthreads = p->threads > 0 ? p->threads : omp_get_max_threads();
+
+    /* Candidates: as many as requested and the mesh has. */
+    {
+        unsigned char *used = dtx_alloc((size_t)src->nv, 1, 1);
+        if (!used)
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        for (int64_t i = 0; i < 3 * (int64_t)src->nf; i++)
+            used[src->F[i]] = 1;
+        for (int32_t i = 0; i < src->nv; i++)
+            nfaced += used[i];
+        free(used);
+    }
+    res->ncand = p->candidates < nfaced ? p->candidates : nfaced;
+    mmax = (p->max_keys < res->ncand ? p->max_keys : res->ncand) + 1;
+    cand = dtx_alloc((size_t)res->ncand, sizeof *cand, 0);
+    radius = dtx_alloc((size_t)res->ncand, sizeof *radius, 0);
+    errs = dtx_alloc((size_t)res->ncand, sizeof *errs, 0);
+    inset = dtx_alloc((size_t)res->ncand, 1, 1);
+    res->keys = dtx_alloc((size_t)mmax, sizeof *res->keys, 0);
+    ws = dtx_alloc((size_t)nthreads, sizeof *ws, 1);
+    if (!cand || !radius || !errs || !inset || !res->keys || !ws) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        goto fail;
+    }
+    res->candidates = cand;
+    res->radius = c.radius;
+    if ((st = dtx_farthest_points(src, res->ncand, cand, radius, err)) != DTX_OK)
+        goto fail;
+
+    /* Rest mesh and clustering features. */
+    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
+                       0);
+    if (!c.feat) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        goto fail;
+    }
+    c.skin.threads = nthreads;
+    if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
+                                   err)) != DTX_OK ||
+        (st = dtx_skin_features(c.sm, nframes, X, &c.skin, c.feat, err)) != DTX_OK)
+        goto fail;
+
+    /* The first set: c_1, and the first candidate of every further
+     * component (infinitely far from the ones before): a component without
+     * a key point cannot be skinned. */
+    for (int32_t i = 0; i < res->ncand; i++)
+        if (i == 0 || isinf(radius[i])) {
+            if (res->count + 1 >= mmax) {
+                st = dtx_seterr(err, DTX_EINVAL,
+                                "key points: the source has more components than max_keys (%d)",
+                                (int)p->max_keys);
+                goto fail;
+            }
+            res->keys[res->count++] = cand[i];
+            inset[i] = 1;
+        }
+    if ((st = dtx_bbw_incr_create(src, res->keys, res->count, &incr, err)) != DTX_OK)
+        goto fail;
+    for (int t = 0; t < nthreads; t++)
+        if (work_alloc(&ws[t], &c, mmax, incr) != 0) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            goto fail;
+        }
+    if (c.exact)
+        st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error, err);
+    else if ((st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) == DTX_OK)
+        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, &ws[0], &res->error,
+                          err);
+    if (st != DTX_OK)
+        goto fail;
+    res->error_first = res->error;
+
+    /* Stage 1: add while the error is above eps and a candidate lowers it. */
+    while (res->error > p->eps && res->count < p->max_keys && res->count < res->ncand) {
+        int32_t b;
+        if (!c.exact && (st = round_labels(&c, incr, res->count + 1, nthreads, &ws[0], err)) !=
+                            DTX_OK)
+            goto fail;
+        round_eval(&c, incr, cand, res->ncand, inset, -1, ws[0].labels, res->count + 1, ws,
+                   nthreads, p, errs, &res->evaluations, &res->failed);
+        if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, err)) != DTX_OK)
+            goto fail;
+        b = argmin(errs, res->ncand);
+        if (b < 0 || !(errs[b] < res->error))
+            break;
+        if ((st = dtx_bbw_incr_add(incr, cand[b], err)) != DTX_OK)
+            goto fail;
+        res->keys[res->count++] = cand[b];
+        inset[b] = 1;
+        res->error = errs[b];
+        if ((st = push_trace(res, &tcap, errs[b], err)) != DTX_OK)
+            goto fail;
+    }
+
+    /* Stage 2: replace each key point by a better candidate, sweep until
+     * nothing changes. */
+    for (int sweep = 0; sweep < p->max_sweeps; sweep++) {
+        int changed = 0;
+        res->sweeps = sweep + 1;
+        for (int32_t j = 0; j < res->count; j++) {
+            int32_t b, old;
+            if (!c.exact &&
+                (st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) != DTX_OK)
+                goto fail;
+            round_eval(&c, incr, cand, res->ncand, inset, (int)j, ws[0].labels, res->count, ws,
+                       nthreads, p, errs, &res->evaluations, &res->failed);
+            if (p->part_count > 1 &&
+                (st = p->reduce(p->reduce_ctx, errs, res->ncand, err)) != DTX_OK)
+                goto fail;
+            b = argmin(errs, res->ncand);
+            if (b < 0 || !(errs[b] < res->error))
+                continue;
+            if ((st = dtx_bbw_incr_replace(incr, j, cand[b], err)) != DTX_OK)
+                goto fail;
+            old = res->keys[j];
+            for (int32_t i = 0; i < res->ncand; i++)
+                if (cand[i] == old)
+                    inset[i] = 0;
+            res->keys[j] = cand[b];
+            inset[b] = 1;
+            res->error = errs[b];
+            res->replacements++;
+            changed = 1;
+            if ((st = push_trace(res, &tcap, errs[b], err)) != DTX_OK)
+                goto fail;
+        }
+        if (!changed)
+            break;
+    }
+
+    /* The final set as the paper evaluates it. */
+    if (c.exact)
+        res->error_exact = res->error;
+    else if ((st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error_exact,
+                              err)) != DTX_OK)
+        goto fail;
+    goto done;
+fail:
+    res->candidates = NULL;
+    free(cand);
+    cand = NULL;
+    dtx_kp_result_free(res);
+done:
+    if (st == DTX_OK)
+        cand = NULL; /* owned by res */
+    free(cand);
+    for (int t = 0; ws && t < nthreads; t++)
+        work_free(&ws[t]);
+    free(ws);
+    free(radius);
+    free(errs);
+    free(inset);
+    free(c.feat);
+    dtx_skin_mesh_free(&c.sm);
+    dtx_bbw_incr_free(&incr);
+    return st;
+}
+
+dtx_status dtx_keypoints_error(const dtx_mesh *src, int32_t nframes, const double *X,
+                               const int32_t *keys, int32_t m, const dtx_skin_params *skin,
+                               double *error, dtx_error *err)
+{
+    kp_ctx c;
+    kp_work w;
+    dtx_status st;
+    memset(&c, 0, sizeof c);
+    if (!src || !X || !keys || m < 1 || nframes < 1 || !skin)
+        return dtx_seterr(err, DTX_EINVAL, "key points: missing mesh, frames or key points");
+    if ((st = dtx_mesh_validate(src, "key points: source mesh", err)) != DTX_OK)
+        return st;
+    c.src = src;
+    c.nv = src->nv;
+    c.nframes = nframes;
+    c.X = X;
+    c.skin = *skin;
+    c.exact = 1;
+    c.radius = rest_radius(src);
+    if (!(c.radius > 0.0))
+        return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
+    if (work_alloc(&w, &c, m, NULL) != 0)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
+                       0);
+    if (!c.feat)
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    else if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
+                                        err)) == DTX_OK &&
+             (st = dtx_skin_features(c.sm, nframes, X, &c.skin, c.feat, err)) == DTX_OK)
+        st = eval_exact(&c, keys, m, c.skin.threads, &w, error, err);
+    work_free(&w);
+    free(c.feat);
+    dtx_skin_mesh_free(&c.sm);
+    return st;
+}
