@@ -6,6 +6,7 @@
 #include "cmd_export.h"
 #include "cmd_generate.h"
 #include "cmd_inspect.h"
+#include "cmd_keypoints.h"
 #include "cmd_render.h"
 #include "cmd_report.h"
 #include "driver.h"
@@ -34,6 +35,7 @@ static const char usage_text[] =
     "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
     "                     [--source /meshes/A] [--target /meshes/B]\n"
     "  dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]   (alone or under mpirun)\n"
+    DTX_KEYPOINTS_USAGE
     DTX_EXPORT_USAGE
     DTX_INSPECT_USAGE
     "  dtx validate FILE.h5\n"
@@ -516,6 +518,8 @@ int main(int argc, char **argv)
     }
     if (strcmp(argv[1], "run") == 0)
         return cmd_run(argc, argv);
+    if (strcmp(argv[1], "keypoints") == 0)
+        return dtx_cmd_keypoints(argc, argv);
     if (strcmp(argv[1], "export") == 0)
         return dtx_cmd_export(argc, argv);
     if (strcmp(argv[1], "inspect") == 0)

@@ -6,10 +6,17 @@
  *   2. read the inputs (every rank: source mesh, sequence shapes, targets, markers);
  *   3. decide what the output file is: a fresh OUTPUT.partial, the partial of an
  *      interrupted run to continue (--resume), or nothing to do;
+ *   3b. method biharmonic: every rank reads the training frames; with
+ *      keypoints "auto" the ranks select the key points together, each
+ *      evaluating its share of the candidates;
  *   4. correspondences: reused from the partial or the old output when their key
  *      (a hash of both meshes, the markers and the parameters) matches, else
- *      computed, different targets on different ranks, then broadcast;
- *   5. open the output: create every mesh, correspondence and result up front
+ *      computed, different targets on different ranks, then broadcast (none
+ *      for biharmonic with markers as key points); then, for biharmonic, each
+ *      target's key points: its markers, or the selected ones mapped through
+ *      the correspondence;
+ *   5. open the output: create every mesh, correspondence, key-point set
+ *      (biharmonic) and result up front
  *      (so the frame loop only writes raw data into allocated space), or reopen
  *      the partial and read which frames are done;
  *   6. per target: factor once (every rank); per sequence: the frame groups not
@@ -34,8 +41,11 @@
 #include "dtx_core.h"
 #include "h5layout.h"
 #include "job.h"
+#include "keypoint_setup.h"
+#include "keypoints.h"
 #include "meshfile.h"
 #include "progress.h"
+#include "transfer_bh.h"
 
 #include <errno.h>
 #include <limits.h>
@@ -56,7 +66,7 @@
 extern void openblas_set_num_threads(int n) __attribute__((weak));
 
 typedef struct {
-    double read, correspond, factor, transfer, write, total;
+    double read, keypoints, correspond, factor, transfer, write, total;
 } phase_times;
 
 /* Residual statistics of the frames transferred by this run. */
@@ -76,6 +86,10 @@ typedef struct {
     int reused;      /* correspondence found in a cache */
     int owner;       /* rank that computes it */
     char mesh_path[DTX_H5_PATH_MAX], corr_path[DTX_H5_PATH_MAX];
+    /* method biharmonic: the key points (source -> target vertex) as a
+     * marker set, stored in the output at kp_path */
+    dtx_markers keys;
+    char kp_path[DTX_H5_PATH_MAX];
 } target_ctx;
 
 typedef struct {
@@ -109,6 +123,11 @@ typedef struct {
     result_ctx *rs; /* nt x ns, result of target t and sequence s at t * ns + s */
     phase_times tm;
     run_stats stats;
+    /* method biharmonic: the training frames (every rank) and, with
+     * keypoints "auto", the key points selected on them */
+    int32_t ntrain;
+    double *Xtrain;
+    dtx_kp_result kp;
     int64_t frames_todo, frames_skipped, frames_done; /* global, known on rank 0 */
     dtx_progress prog;
 } run_state;
@@ -359,10 +378,10 @@ static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_er
     if (rank == 0) {
         st = dtx_job_load(path, job, err);
         if (st == DTX_OK && job->method != DTX_METHOD_SP04 &&
-            job->method != DTX_METHOD_MULTICOMPONENT)
+            job->method != DTX_METHOD_MULTICOMPONENT && job->method != DTX_METHOD_BIHARMONIC)
             st = dtx_seterr(err, DTX_EJOB,
-                            "%s: /method: this build of dtx runs methods sp04 and multicomponent "
-                            "only",
+                            "%s: /method: this build of dtx runs methods sp04, multicomponent "
+                            "and biharmonic only",
                             path);
         if (st == DTX_OK)
             len = (long long)strlen(job->text);
@@ -517,7 +536,17 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
                  "; %d of its vertices sit at the position of another vertex (vertices %d and "
                  "%d first): split along seams? weld them",
                  (int)rep.duplicate_positions, (int)rep.dup_vertex[0], (int)rep.dup_vertex[1]);
-    if (is_target && rep.components > 1 && r->job.method != DTX_METHOD_MULTICOMPONENT)
+    if (is_target && rep.components > 1 && r->job.method == DTX_METHOD_BIHARMONIC &&
+        r->job.bh.keypoints == DTX_BH_KEYS_AUTO)
+        return dtx_seterr(err, DTX_EMESH,
+                          "%s:%s: the target mesh has %d connected components (vertex %d is not "
+                          "connected to vertex %d) and the sp04 correspondence that maps "
+                          "keypoints \"auto\" needs one (give every piece key points with "
+                          "keypoints \"markers\")%s",
+                          file, path, (int)rep.components, (int)rep.other_component,
+                          (int)m->F[0], seams);
+    if (is_target && rep.components > 1 && r->job.method != DTX_METHOD_MULTICOMPONENT &&
+        r->job.method != DTX_METHOD_BIHARMONIC)
         return dtx_seterr(err, DTX_EMESH,
                           "%s:%s: the target mesh has %d connected components (vertex %d is not "
                           "connected to vertex %d) and method sp04 needs one (separate pieces "
@@ -593,7 +622,16 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     double t0 = wtime();
-    char *params = dtx_job_params_json(&r->job);
+    char *params;
+    /* The biharmonic method's key points are mapped through sp04's
+     * correspondence: its cache key is sp04's, so changing the biharmonic
+     * parameters does not recompute it. */
+    {
+        dtx_job as_sp04 = r->job;
+        if (as_sp04.method == DTX_METHOD_BIHARMONIC)
+            as_sp04.method = DTX_METHOD_SP04;
+        params = dtx_job_params_json(&as_sp04);
+    }
     r->nt = r->job.ntargets;
     r->tg = calloc((size_t)r->nt, sizeof *r->tg);
     if (!params || !r->tg)
@@ -679,6 +717,132 @@ static out_mode decide_mode(run_state *r)
 }
 
 /* ------------------------------------------------------------------ */
+/* 3b. Key points (method biharmonic)                                  */
+/* ------------------------------------------------------------------ */
+
+/* Every rank reads the training frames (the clustering features of the
+ * fit); with keypoints "auto" the ranks then select the key points on them
+ * together, each evaluating its share of the candidates. */
+static dtx_status select_keypoints(run_state *r, dtx_error *err)
+{
+    double t0 = wtime();
+    const dtx_h5_seq **seqs;
+    const dtx_bh_job_params *bh = &r->job.bh;
+    dtx_kp_params kp;
+    dtx_status st = DTX_OK;
+    if (r->job.method != DTX_METHOD_BIHARMONIC)
+        return DTX_OK;
+    seqs = dtx_alloc((size_t)r->ns, sizeof *seqs, 0);
+    if (!seqs)
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    for (int s = 0; seqs && s < r->ns; s++)
+        seqs[s] = &r->sq[s].seq;
+    if (st == DTX_OK)
+        st = dtx_read_training_frames(seqs, r->ns, bh->training_frames, &r->ntrain, &r->Xtrain,
+                                      err);
+    free(seqs);
+    if (st != DTX_OK)
+        dtx_error_prefix(err, "%s: training frames", r->job.source_file);
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
+        return st;
+    if (bh->keypoints != DTX_BH_KEYS_AUTO) {
+        r->tm.keypoints += wtime() - t0;
+        return DTX_OK;
+    }
+    dtx_kp_params_default(&kp);
+    kp.candidates = bh->candidates;
+    kp.eps = bh->eps;
+    kp.max_keys = bh->max_keypoints;
+    kp.skin.lambda = bh->lambda;
+    kp.skin.gamma_logr = bh->gamma_logr;
+    kp.skin.gamma_s = bh->gamma_s;
+    say(r, "dtx: selecting key points on %s:%s from %d training frames (%d candidates, %d "
+           "rank(s) x %d thread(s))",
+        r->job.source_file, r->job.source_mesh, (int)r->ntrain, (int)kp.candidates, r->nranks,
+        r->nthreads);
+    st = dtx_keypoints_select_comm(&r->src, r->ntrain, r->Xtrain, &kp, r->comm, &r->kp, err);
+    if (st != DTX_OK) {
+        /* Every rank holds the same message: prefix it alike. */
+        dtx_error_prefix(err, "%s:%s: key points", r->job.source_file, r->job.source_mesh);
+        return st;
+    }
+    r->tm.keypoints += wtime() - t0;
+    say(r, "dtx: key points selected in %.2f s", r->tm.keypoints);
+    if (r->rank == 0 && !r->opts->quiet)
+        dtx_keypoints_print_steps(stderr, "dtx:   ", &r->kp, bh->eps);
+    return DTX_OK;
+}
+
+static dtx_status copy_markers(const dtx_markers *a, dtx_markers *b, dtx_error *err)
+{
+    dtx_status st = dtx_markers_alloc(b, a->n, err);
+    for (int32_t i = 0; st == DTX_OK && i < a->n; i++) {
+        const char *l = a->labels && a->labels[i] ? a->labels[i] : "";
+        b->src[i] = a->src[i];
+        b->tgt[i] = a->tgt[i];
+        if (!(b->labels[i] = strdup(l)))
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    }
+    if (st != DTX_OK)
+        dtx_markers_free(b);
+    return st;
+}
+
+/* The key points of each target (every rank: cheap, and the same on
+ * every rank): its markers (keypoints "markers"), or the selected key
+ * points moved to the target vertex nearest to where the correspondence's
+ * deformed source puts them (keypoints "auto"; a key point landing on a
+ * target vertex already taken is dropped, with a warning).  Rank 0 prints
+ * them as a table a user can check and edit. */
+static dtx_status target_keys(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    if (r->job.method != DTX_METHOD_BIHARMONIC)
+        return DTX_OK;
+    for (int t = 0; t < r->nt && st == DTX_OK; t++) {
+        target_ctx *tc = &r->tg[t];
+        int32_t m = r->kp.count, *tv = NULL, *dup = NULL;
+        snprintf(tc->kp_path, sizeof tc->kp_path, "/markers/%s-keypoints", tc->tj->name);
+        if (r->job.bh.keypoints == DTX_BH_KEYS_MARKERS) {
+            st = copy_markers(&tc->mk, &tc->keys, err);
+            say(r, "dtx: target %s: its %d markers are the key points", tc->tj->name,
+                (int)tc->mk.n);
+            continue;
+        }
+        tv = dtx_alloc((size_t)m, sizeof *tv, 0);
+        dup = dtx_alloc((size_t)m, sizeof *dup, 0);
+        st = tv && dup ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        if (st == DTX_OK && !tc->corr.deformed_src)
+            st = dtx_seterr(err, DTX_EINVAL, "no deformed source to map the key points with");
+        if (st == DTX_OK)
+            st = dtx_keypoints_map(tc->corr.deformed_src, r->src.nv, &tc->mesh, r->kp.keys, m,
+                                   tv, dup, err);
+        if (st == DTX_OK)
+            st = dtx_keypoints_marker_set(&r->src, r->kp.keys, tv, dup, m, &tc->mk, &tc->keys,
+                                          err);
+        if (st == DTX_OK && r->rank == 0 && !r->opts->quiet) {
+            for (int32_t k = 0; k < m; k++)
+                if (dup[k] >= 0)
+                    say(r, "dtx: warning: target %s: key points %d and %d both map to target "
+                           "vertex %d; key point %d is dropped",
+                        tc->tj->name, (int)dup[k] + 1, (int)k + 1, (int)tv[k], (int)k + 1);
+            fprintf(stderr,
+                    "dtx: target %s: key points mapped through the sp04 correspondence "
+                    "(stored as marker set %s; edit and use it with keypoints \"markers\"):\n",
+                    tc->tj->name, tc->kp_path);
+            dtx_keypoints_print_table(stderr, "dtx:   ", &r->src, r->kp.keys, m, &tc->mk, tv,
+                                      dup);
+        }
+        free(tv);
+        free(dup);
+        if (st != DTX_OK)
+            dtx_error_prefix(err, "target \"%s\" (%s:%s)", tc->tj->name, tc->tj->file,
+                             tc->tj->mesh);
+    }
+    return agree(r->comm, st, err);
+}
+
+/* ------------------------------------------------------------------ */
 /* 4. Correspondences                                                  */
 /* ------------------------------------------------------------------ */
 
@@ -755,8 +919,11 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     double t0 = wtime();
     dtx_status st = DTX_OK;
     dtx_corr_params prm;
-    int *reused = calloc((size_t)r->nt, sizeof *reused);
-    int ncomputed = 0;
+    int *reused, ncomputed = 0;
+    /* Markers as key points need no correspondence. */
+    if (r->job.method == DTX_METHOD_BIHARMONIC && r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
+        return DTX_OK;
+    reused = calloc((size_t)r->nt, sizeof *reused);
     if (agree(r->comm, reused ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory"), err) !=
         DTX_OK) {
         free(reused);
@@ -764,7 +931,8 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     }
     /* The partial of an interrupted run holds correspondences too, even
      * when it is discarded. */
-    if (r->rank == 0 && r->job.method == DTX_METHOD_SP04) {
+    if (r->rank == 0 && (r->job.method == DTX_METHOD_SP04 ||
+                         r->job.method == DTX_METHOD_BIHARMONIC)) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
@@ -808,6 +976,27 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
 /* 5. The output                                                       */
 /* ------------------------------------------------------------------ */
 
+/* Rank 0: the new output file, serial, holding each target's key points
+ * (method biharmonic) as the marker set /markers/TARGET-keypoints. */
+static dtx_status write_keypoint_sets(run_state *r, dtx_error *err)
+{
+    hid_t f = H5I_INVALID_HID;
+    char srcdesc[4200];
+    dtx_status st = dtx_h5_create(r->partial, MPI_COMM_NULL, &f, err);
+    snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
+    for (int t = 0; t < r->nt && st == DTX_OK; t++)
+        st = dtx_h5_write_markers(f, r->tg[t].kp_path, &r->tg[t].keys, srcdesc,
+                                  r->tg[t].mesh_path, err);
+    if (f >= 0) {
+        dtx_error e2;
+        if (dtx_h5_close(&f, &e2) != DTX_OK && st == DTX_OK) {
+            *err = e2;
+            st = e2.code;
+        }
+    }
+    return st;
+}
+
 static dtx_status create_output(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
@@ -820,7 +1009,18 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     }
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
-    if ((st = agree(r->comm, dtx_h5_create(r->partial, r->comm, &r->out, err), err)) != DTX_OK)
+    if (r->job.method == DTX_METHOD_BIHARMONIC) {
+        /* Marker sets have variable-length labels, which parallel HDF5
+         * cannot write: rank 0 creates the file with the key points
+         * serially, then every rank opens it. */
+        st = r->rank == 0 ? write_keypoint_sets(r, err) : DTX_OK;
+        if ((st = agree(r->comm, st, err)) != DTX_OK)
+            goto done;
+        st = dtx_h5_open(r->partial, r->comm, 1, &r->out, err);
+    } else {
+        st = dtx_h5_create(r->partial, r->comm, &r->out, err);
+    }
+    if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
     st = params ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
     snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
@@ -853,8 +1053,9 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             dtx_h5_provenance prov;
             snprintf(res_path, sizeof res_path, "/results/%s/%s", tj->name, r->sq[s].name);
             snprintf(seqdesc, sizeof seqdesc, "%s:%s", r->job.source_file, r->sq[s].path);
-            prov.method =
-                r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent" : "sp04";
+            prov.method = r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent"
+                          : r->job.method == DTX_METHOD_BIHARMONIC   ? "biharmonic"
+                                                                     : "sp04";
             prov.job = r->job.text;
             prov.parameters = params;
             prov.source_sequence = seqdesc;
@@ -1042,13 +1243,39 @@ static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int
 typedef struct {
     dtx_sp04_plan *sp04;
     dtx_mc_plan *mc;
+    dtx_bh_plan *bh;
+    int recentre;      /* bh with translation "fixed": move each frame's centroid */
+    double centre[3];  /* to the target's rest centroid */
 } plan_ref;
+
+/* Moves each of the n frames X (n x nv x 3) so that its vertex centroid is
+ * c (per frame, in vertex order: the same bits however frames are split). */
+static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
+{
+    for (int64_t f = 0; f < n; f++) {
+        double *Y = X + (size_t)f * 3 * (size_t)nv, m[3] = {0, 0, 0};
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 3; k++)
+                m[k] += Y[3 * (size_t)i + k];
+        for (int k = 0; k < 3; k++)
+            m[k] = c[k] - m[k] / nv;
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 3; k++)
+                Y[3 * (size_t)i + k] += m[k];
+    }
+}
 
 static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
                              double *res, dtx_error *err)
 {
     if (p->mc)
         return dtx_mc_apply(p->mc, n, Xs, Xt, res, NULL, err);
+    if (p->bh) {
+        dtx_status st = dtx_bh_apply(p->bh, n, Xs, Xt, res, err);
+        if (st == DTX_OK && p->recentre)
+            recentre(Xt, n, dtx_bh_plan_nv_tgt(p->bh), p->centre);
+        return st;
+    }
     return dtx_sp04_apply(p->sp04, n, Xs, Xt, res, err);
 }
 
@@ -1158,6 +1385,37 @@ static dtx_status count_todo(run_state *r, dtx_error *err)
     return agree(r->comm, st, err);
 }
 
+/* The biharmonic transfer of one target: both meshes' bounded biharmonic
+ * weights of their key points and the source fit's clustering (on the
+ * training frames). */
+static dtx_status bh_plan(run_state *r, const target_ctx *tc, plan_ref *plan, dtx_error *err)
+{
+    dtx_bh_params bp;
+    dtx_bh_info info;
+    dtx_status st;
+    dtx_bh_params_default(&bp);
+    bp.skin.lambda = r->job.bh.lambda;
+    bp.skin.gamma_logr = r->job.bh.gamma_logr;
+    bp.skin.gamma_s = r->job.bh.gamma_s;
+    st = dtx_bh_plan_create(&r->src, &tc->mesh, tc->keys.src, tc->keys.tgt, tc->keys.n, &bp,
+                            r->ntrain, r->Xtrain, &plan->bh, err);
+    if (st != DTX_OK)
+        return st;
+    plan->recentre = tc->tj->translation == DTX_TRANSLATION_FIXED;
+    for (int k = 0; k < 3; k++) {
+        plan->centre[k] = 0;
+        for (int32_t i = 0; i < tc->mesh.nv; i++)
+            plan->centre[k] += tc->mesh.V[3 * (size_t)i + k];
+        plan->centre[k] /= tc->mesh.nv;
+    }
+    dtx_bh_plan_info(plan->bh, &info);
+    say(r, "dtx: target %s: %d key points, %d rotation clusters, biharmonic weights %.2f s; "
+           "key points %.2f%% of the source diagonal apart after aligning the target",
+        tc->tj->name, (int)info.keys, (int)info.clusters, info.weights_seconds,
+        100 * info.align_rms);
+    return DTX_OK;
+}
+
 static dtx_status transfer_all(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
@@ -1182,7 +1440,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt; t++) {
         target_ctx *tc = &r->tg[t];
         const dtx_job_target *tj = tc->tj;
-        plan_ref plan = {NULL, NULL};
+        plan_ref plan;
         dtx_anchor anchor;
         int32_t *pin_idx = NULL;
         double *pin_pos = NULL, t0 = wtime();
@@ -1191,6 +1449,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             needed |= !RESULT(r, t, s)->finished;
         if (!needed)
             continue;
+        memset(&plan, 0, sizeof plan);
         /* Factor (every rank: each needs the factor for its solves). */
         if (tj->npins > 0) {
             pin_idx = dtx_alloc((size_t)tj->npins, sizeof *pin_idx, 0);
@@ -1217,6 +1476,8 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             mp.tol = r->job.mc.tol;
             st = dtx_mc_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, &mp,
                                     anchor, pin_idx, pin_pos, tj->npins, &plan.mc, err);
+        } else if (r->job.method == DTX_METHOD_BIHARMONIC) {
+            st = bh_plan(r, tc, &plan, err);
         } else {
             st = dtx_sp04_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, anchor,
                                       pin_idx, pin_pos, tj->npins, &plan.sp04, err);
@@ -1233,6 +1494,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
                 st = transfer_result(r, t, s, &plan, &fb, err);
         dtx_sp04_plan_free(&plan.sp04);
         dtx_mc_plan_free(&plan.mc);
+        dtx_bh_plan_free(&plan.bh);
         if (st != DTX_OK)
             goto done;
     }
@@ -1349,11 +1611,12 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
     fprintf(f,
             ",\n  \"mode\": \"%s\",\n  \"ranks\": %d,\n  \"threads_per_rank\": %d,\n"
             "  \"frames\": %lld,\n  \"frames_skipped\": %lld,\n"
-            "  \"seconds\": {\"read\": %.6f, \"correspondence\": %.6f, \"factor\": %.6f, "
-            "\"transfer\": %.6f, \"write\": %.6f, \"total\": %.6f},\n"
+            "  \"seconds\": {\"read\": %.6f, \"keypoints\": %.6f, \"correspondence\": %.6f, "
+            "\"factor\": %.6f, \"transfer\": %.6f, \"write\": %.6f, \"total\": %.6f},\n"
             "  \"frames_per_second\": %.3f,\n  \"residual\": ",
             mode_name[r->mode], r->nranks, r->nthreads, (long long)all->frames,
-            (long long)r->frames_skipped, r->tm.read, r->tm.correspond, r->tm.factor,
+            (long long)r->frames_skipped, r->tm.read, r->tm.keypoints, r->tm.correspond,
+            r->tm.factor,
             r->tm.transfer, r->tm.write, r->tm.total,
             r->tm.total > 0 ? (double)all->frames / r->tm.total : 0.0);
     json_stats(f, all);
@@ -1365,7 +1628,10 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
         fprintf(f, "%s", t ? ", " : "");
         json_str(f, r->tg[t].tj->name);
         fprintf(f, ": \"%s\"",
-                r->mode == OUT_DONE ? "not needed" : (r->tg[t].reused ? "reused" : "computed"));
+                r->mode == OUT_DONE || (r->job.method == DTX_METHOD_BIHARMONIC &&
+                                        r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
+                    ? "not needed"
+                    : (r->tg[t].reused ? "reused" : "computed"));
     }
     fprintf(f, "},\n  \"results\": [");
     for (int t = 0; t < r->nt; t++)
@@ -1390,6 +1656,7 @@ static void summarise(run_state *r)
 {
     run_stats all;
     double mine = peak_rss_mb(), *rss = NULL;
+    char kp_time[64] = "";
     stats_init(&all);
     stats_reduce(r->comm, &r->stats, &all);
     if (r->rank == 0)
@@ -1409,16 +1676,18 @@ static void summarise(run_state *r)
             snprintf(sp, sizeof sp, "%s.summary.json", r->job.output_file);
         write_summary(r, sp, &all, rss);
     }
+    if (r->tm.keypoints > 0)
+        snprintf(kp_time, sizeof kp_time, "key points %.3f s, ", r->tm.keypoints);
     if (r->mode == OUT_DONE)
         say(r, "dtx: %s is already complete for this job: nothing to do", r->job.output_file);
     else
         say(r,
             "dtx: %lld frames in %.3f s (%.1f frames/s) on %d rank(s) x %d thread(s)%s; "
-            "read %.3f s, correspondence %.3f s, factor %.3f s, transfer %.3f s, write %.3f s; "
-            "mean residual %.4g\ndtx: result: %s",
+            "read %.3f s, %scorrespondence %.3f s, factor %.3f s, transfer %.3f s, write %.3f "
+            "s; mean residual %.4g\ndtx: result: %s",
             (long long)all.frames, r->tm.total,
             r->tm.total > 0 ? (double)all.frames / r->tm.total : 0.0, r->nranks, r->nthreads,
-            r->frames_skipped ? " (frames done before were kept)" : "", r->tm.read,
+            r->frames_skipped ? " (frames done before were kept)" : "", r->tm.read, kp_time,
             r->tm.correspond, r->tm.factor, r->tm.transfer, r->tm.write, mean_of(&all),
             r->job.output_file);
     free(rss);
@@ -1437,6 +1706,7 @@ static void release(run_state *r)
         if (r->sq[s].open)
             dtx_h5_seq_close(&r->sq[s].seq);
     for (int t = 0; r->tg && t < r->nt; t++) {
+        dtx_markers_free(&r->tg[t].keys);
         dtx_corr_free(&r->tg[t].corr);
         dtx_markers_free(&r->tg[t].mk);
         dtx_mesh_free(&r->tg[t].mesh);
@@ -1444,6 +1714,8 @@ static void release(run_state *r)
     if (r->src_file >= 0)
         dtx_h5_close(&r->src_file, NULL);
     dtx_mesh_free(&r->src);
+    free(r->Xtrain);
+    dtx_kp_result_free(&r->kp);
     free(r->tg);
     free(r->sq);
     free(r->rs);
@@ -1489,7 +1761,8 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
         r.mode = (out_mode)mode;
     }
     if (r.mode != OUT_DONE) {
-        if ((st = correspondences(&r, err)) != DTX_OK)
+        if ((st = select_keypoints(&r, err)) != DTX_OK ||
+            (st = correspondences(&r, err)) != DTX_OK || (st = target_keys(&r, err)) != DTX_OK)
             goto fail;
         out_started = 1;
         st = r.mode == OUT_RESUME ? reopen_output(&r, err) : create_output(&r, err);

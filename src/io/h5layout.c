@@ -1896,6 +1896,180 @@ fail:
     return st;
 }
 
+/* ============================================================= key points */
+
+/* A scalar f64 attribute (eps, error of a key-point set). */
+static dtx_status write_attr_double(hid_t loc, const char *name, double value, dtx_error *err)
+{
+    return write_attr(loc, ".", name, H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &value, err);
+}
+
+static dtx_status read_attr_double(hid_t loc, const char *obj, const char *name, double *value,
+                                   dtx_error *err)
+{
+    hid_t a, ft, sp;
+    char where[DTX_H5_PATH_MAX];
+    dtx_status st;
+    *value = 0;
+    if ((st = open_attr(loc, obj, name, H5T_FLOAT, &a, &ft, &sp, err)) == DTX_OK &&
+        H5Aread(a, H5T_NATIVE_DOUBLE, value) < 0)
+        st = h5err(err, loc, obj_path(loc, obj, where, sizeof where),
+                   "cannot read attribute %s", name);
+    CLOSE_ID(H5Sclose, sp);
+    CLOSE_ID(H5Tclose, ft);
+    CLOSE_ID(H5Aclose, a);
+    return st;
+}
+
+dtx_status dtx_h5_write_keypoints(hid_t file, const char *group, const dtx_h5_keypoints *kp,
+                                  dtx_error *err)
+{
+    char tmp[DTX_H5_PATH_MAX];
+    hid_t g = H5I_INVALID_HID;
+    hsize_t n = (hsize_t)(kp->n > 0 ? kp->n : 0), pd[2] = {n, 3};
+    hsize_t ne = (hsize_t)(kp->nerror > 0 ? kp->nerror : 0);
+    dtx_status st;
+    if (kp->n < 1 || kp->nerror < 1 || !kp->vertex || !kp->position || !kp->error)
+        return ferr(err, DTX_EINVAL, file, group,
+                    "a key-point set needs at least one point and one error value");
+    if (dtx_h5_is_parallel(file))
+        return ferr(err, DTX_EINVAL, file, group,
+                    "key points cannot be written to a file opened in parallel (HDF5 1.10 "
+                    "cannot write variable-length strings through MPI-IO)");
+    if ((st = begin_group(file, group, 0, tmp, &g, err)) != DTX_OK)
+        goto done;
+    if ((st = create_write(g, "vertex", H5T_STD_I32LE, H5T_NATIVE_INT32, 1, &n, H5P_DEFAULT,
+                           kp->vertex, err)) != DTX_OK ||
+        (st = create_write(g, "position", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, pd,
+                           H5P_DEFAULT, kp->position, err)) != DTX_OK ||
+        (st = create_write_strings(g, "label", (const char *const *)kp->label, kp->n, err)) !=
+            DTX_OK ||
+        (st = create_write(g, "error", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, &ne, H5P_DEFAULT,
+                           kp->error, err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "source_mesh", kp->source_mesh, err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "source_sequences", kp->source_sequences, err)) !=
+            DTX_OK ||
+        (st = dtx_h5_write_attr_int(g, ".", "candidates", kp->candidates, err)) != DTX_OK ||
+        (st = write_attr_double(g, "eps", kp->eps, err)) != DTX_OK ||
+        (st = write_attr_double(g, "error", kp->final_error, err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "dtx_version", DTX_VERSION, err)) != DTX_OK)
+        goto done;
+    CLOSE_ID(H5Gclose, g);
+    st = dtx_h5_commit_group(file, tmp, group, 0, err);
+done:
+    CLOSE_ID(H5Gclose, g);
+    return st;
+}
+
+/* Reads the 1-D or n x 3 float dataset group/name into a malloc'ed array;
+ * rows: the expected first dimension (< 0: any, set on return). */
+static dtx_status read_float_rows(hid_t file, const char *group, const char *name, int cols,
+                                  int64_t *rows, double **out, dtx_error *err)
+{
+    hsize_t want[2] = {0, (hsize_t)cols}, dims[2] = {0, 0};
+    char path[DTX_H5_PATH_MAX];
+    hid_t d;
+    int rank = cols > 0 ? 2 : 1;
+    dtx_status st;
+    *out = NULL;
+    if (join_path(group, name, path, sizeof path))
+        return ferr(err, DTX_EINVAL, file, group, "path too long");
+    if ((st = open_checked(file, path, H5T_FLOAT, rank, want, rank == 2 ? "n x 3" : "S", &d,
+                           dims, err)) != DTX_OK)
+        return st;
+    if (*rows >= 0 && (int64_t)dims[0] != *rows)
+        st = ferr(err, DTX_EFORMAT, file, path, "has %llu rows, expected %lld",
+                  (unsigned long long)dims[0], (long long)*rows);
+    else
+        st = read_whole(file, d, path, dims, rank, H5T_NATIVE_DOUBLE, sizeof(double),
+                        (void **)out, err);
+    CLOSE_ID(H5Dclose, d);
+    for (uint64_t i = 0; st == DTX_OK && i < dims[0] * (rank == 2 ? dims[1] : 1); i++)
+        if (!isfinite((*out)[i]))
+            st = ferr(err, DTX_ENONFINITE, file, path, "value %llu is not finite",
+                      (unsigned long long)i);
+    if (st != DTX_OK) {
+        free(*out);
+        *out = NULL;
+    } else {
+        *rows = (int64_t)dims[0];
+    }
+    return st;
+}
+
+dtx_status dtx_h5_read_keypoints(hid_t file, const char *group, dtx_h5_keypoints *kp,
+                                 dtx_error *err)
+{
+    static const hsize_t want[1] = {0};
+    char path[DTX_H5_PATH_MAX];
+    hid_t d = H5I_INVALID_HID;
+    hsize_t dims[1] = {0};
+    int64_t n = -1, ne = -1, cand = 0;
+    dtx_status st;
+    memset(kp, 0, sizeof *kp);
+    if (object_type(file, group) != H5O_TYPE_GROUP)
+        return ferr(err, DTX_EFORMAT, file, group, "missing (no such key-point group)");
+    if ((st = read_index_1d(file, group, "vertex", &n, &kp->vertex, err)) != DTX_OK)
+        goto fail;
+    if (n < 1) {
+        st = ferr(err, DTX_EFORMAT, file, group, "holds no key points");
+        goto fail;
+    }
+    kp->n = (int32_t)n;
+    if ((st = read_float_rows(file, group, "position", 3, &n, &kp->position, err)) != DTX_OK ||
+        (st = read_float_rows(file, group, "error", 0, &ne, &kp->error, err)) != DTX_OK)
+        goto fail;
+    if (ne < 1) {
+        st = ferr(err, DTX_EFORMAT, file, group, "has no error values");
+        goto fail;
+    }
+    kp->nerror = (int32_t)ne;
+    if (join_path(group, "label", path, sizeof path)) {
+        st = ferr(err, DTX_EINVAL, file, group, "path too long");
+        goto fail;
+    }
+    if ((st = open_checked(file, path, H5T_STRING, 1, want, "n", &d, dims, err)) != DTX_OK)
+        goto fail;
+    if ((int64_t)dims[0] != n) {
+        st = ferr(err, DTX_EFORMAT, file, path, "has %llu entries, expected %lld",
+                  (unsigned long long)dims[0], (long long)n);
+        goto fail;
+    }
+    if ((st = check_storage(file, d, path, dims, 1, err)) != DTX_OK ||
+        (st = read_strings(file, d, path, n, &kp->label, err)) != DTX_OK)
+        goto fail;
+    CLOSE_ID(H5Dclose, d);
+    if ((st = dtx_h5_read_attr_str(file, group, "source_mesh", &kp->source_mesh, err)) !=
+            DTX_OK ||
+        (st = dtx_h5_read_attr_str(file, group, "source_sequences", &kp->source_sequences,
+                                   err)) != DTX_OK ||
+        (st = dtx_h5_read_attr_int(file, group, "candidates", &cand, err)) != DTX_OK ||
+        (st = read_attr_double(file, group, "eps", &kp->eps, err)) != DTX_OK ||
+        (st = read_attr_double(file, group, "error", &kp->final_error, err)) != DTX_OK ||
+        (st = dtx_h5_read_attr_str(file, group, "dtx_version", &kp->dtx_version, err)) != DTX_OK)
+        goto fail;
+    kp->candidates = (int32_t)cand;
+    return DTX_OK;
+fail:
+    CLOSE_ID(H5Dclose, d);
+    dtx_h5_keypoints_free(kp);
+    return st;
+}
+
+void dtx_h5_keypoints_free(dtx_h5_keypoints *kp)
+{
+    if (!kp)
+        return;
+    free(kp->vertex);
+    free(kp->position);
+    dtx_h5_free_strings(&kp->label, kp->n);
+    free(kp->error);
+    free(kp->source_mesh);
+    free(kp->source_sequences);
+    free(kp->dtx_version);
+    memset(kp, 0, sizeof *kp);
+}
+
 /* ======================================================== correspondences */
 
 dtx_status dtx_h5_write_corr(hid_t file, const char *group, const int32_t *pairs,

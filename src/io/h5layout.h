@@ -9,6 +9,8 @@
  *   /meshes/<name>           vertices f64 nv x 3, faces i32 nf x 3 (0-based)
  *   /sequences/<name>        positions f32|f64 T x nv x 3, link rest -> mesh
  *   /markers/<name>          source_vertex, target_vertex i32 m, label str m
+ *   /keypoints/<name>        vertex i32 n, position f64 n x 3, label str n,
+ *                            error f64 S (selected key points of a source)
  *   /correspondences/<name>  pairs i32 P x 2, deformed_source f64 nv_s x 3
  *   /results/<name>          positions T x nv x 3, residual f64 T,
  *                            frame_done u8 T, link target -> mesh
@@ -300,6 +302,45 @@ dtx_status dtx_h5_write_markers(hid_t file, const char *group, const dtx_markers
  * integer indices >= 0 and index_base == 0; ranges against the meshes are
  * the caller's dtx_markers_validate. */
 dtx_status dtx_h5_read_markers(hid_t file, const char *group, dtx_markers *mk, dtx_error *err);
+
+/* -------------------------------------------------------------- key points */
+
+/* A key-point set selected on a source mesh (`dtx keypoints`, keypoints.h).
+ * Read back, every pointer is owned (free with dtx_h5_keypoints_free);
+ * written, nothing is taken over. */
+typedef struct {
+    int32_t n;              /* key points, >= 1 */
+    int32_t *vertex;        /* n source vertices, 0-based, in the order chosen */
+    double *position;       /* n x 3: their rest positions */
+    char **label;           /* n labels (nearest marker label, or ""); NULL: all "" */
+    int32_t nerror;         /* steps, >= 1 */
+    double *error;          /* nerror: the error after each step (the first key
+                               points alone, each addition, each accepted
+                               replacement) */
+    char *source_mesh;      /* HDF5 path (or FILE:PATH) of the source mesh */
+    char *source_sequences; /* the frames selected on (text, e.g. paths joined by ", ") */
+    int32_t candidates;     /* candidates evaluated */
+    double eps;             /* the error aimed at */
+    double final_error;     /* the final set's error (attribute "error") */
+    char *dtx_version;      /* read back only (written as DTX_VERSION) */
+} dtx_h5_keypoints;
+
+/* Writes the key-point group `group` (datasets vertex i32 n, position f64
+ * n x 3, label str n, error f64 nerror; attributes source_mesh,
+ * source_sequences, candidates, eps, error (f64 scalars for eps and error),
+ * dtx_version).  Fails if group exists.  Serial files only (labels are
+ * variable-length strings). */
+dtx_status dtx_h5_write_keypoints(hid_t file, const char *group, const dtx_h5_keypoints *kp,
+                                  dtx_error *err);
+
+/* Reads a key-point group into *kp (allocated here; zeroed on failure).
+ * Checks the shapes agree (n >= 1, nerror >= 1), vertices >= 0 and values
+ * finite; the vertex range against the source mesh is the caller's. */
+dtx_status dtx_h5_read_keypoints(hid_t file, const char *group, dtx_h5_keypoints *kp,
+                                 dtx_error *err);
+
+/* Frees what a read key-point set owns and zeroes it.  Accepts NULL. */
+void dtx_h5_keypoints_free(dtx_h5_keypoints *kp);
 
 /* -------------------------------------------------------- correspondences */
 

@@ -3,7 +3,7 @@
  * (schemas/hdf5-layout-v1.json, compiled in as dtx_h5_layout_json()).
  *
  * The description lists, per kind of group (meshes, sequences, markers,
- * correspondences, results), the datasets with their dtype class, sizes and
+ * key points, correspondences, results), the datasets with their dtype class, sizes and
  * dims (numbers or symbols such as "nv"), the attributes, the references
  * to other groups (soft links and path attributes) and a list of checks.
  * The walk goes kind by kind in the order of the description, so a
@@ -532,6 +532,26 @@ done:
 
 /* ============================================================ attributes */
 
+/* A float attribute: one finite value of a floating-point type. */
+static void check_float_attribute(vctx *c, const char *obj, const char *name)
+{
+    hid_t a = H5Aopen_by_name(c->file, obj, name, H5P_DEFAULT, H5P_DEFAULT);
+    hid_t t = a >= 0 ? H5Aget_type(a) : H5I_INVALID_HID;
+    hid_t sp = a >= 0 ? H5Aget_space(a) : H5I_INVALID_HID;
+    double v = 0;
+    if (a < 0 || t < 0 || sp < 0)
+        problem(c, obj, "cannot open attribute %s", name);
+    else if (H5Tget_class(t) != H5T_FLOAT || H5Sget_simple_extent_npoints(sp) != 1)
+        problem(c, obj, "attribute %s: expected a single floating-point value", name);
+    else if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0)
+        problem(c, obj, "cannot read attribute %s", name);
+    else if (!isfinite(v))
+        problem(c, obj, "attribute %s is not finite", name);
+    CLOSE_ID(H5Sclose, sp);
+    CLOSE_ID(H5Tclose, t);
+    CLOSE_ID(H5Aclose, a);
+}
+
 static void check_attribute(vctx *c, const char *obj, const cJSON *spec)
 {
     const char *name = spec->string, *type = jstr(spec, "type");
@@ -578,6 +598,10 @@ static void check_attribute(vctx *c, const char *obj, const cJSON *spec)
             snprintf(what, sizeof what, "attribute %s", name);
             bind(c, equals, a->ival, obj, what);
         }
+        return;
+    }
+    if (type && strcmp(type, "float") == 0) {
+        check_float_attribute(c, obj, name);
         return;
     }
     if (dtx_h5_read_attr_str(c->file, obj, name, &a->sval, &e) != DTX_OK) {

@@ -17,6 +17,7 @@
 #include "job.h"
 
 #include "dtx_core.h"
+#include "keypoints.h"
 
 #include "json_schema.h"
 
@@ -35,6 +36,7 @@
 /* Defaults (they also appear as "default" in the schema; the unit test
  * checks that the two agree). */
 #define DEFAULT_BLOCK_FRAMES 64
+#define DEFAULT_TRAINING_FRAMES 32
 
 static const char *const method_names[] = {"sp04", "multicomponent", "springs", "biharmonic"};
 static const char *const translation_names[] = {"fixed", "follow", "pins"};
@@ -463,6 +465,7 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 {
     const cJSON *src = get(doc, "source"), *tgts = get(doc, "targets"), *out = get(doc, "output");
     const cJSON *sp = get(doc, "sp04"), *mc = get(doc, "multicomponent"), *x;
+    const cJSON *bh = get(doc, "biharmonic");
     dtx_status st;
     int i, m;
 
@@ -568,6 +571,39 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
             job->mc.max_iter = (int)x->valuedouble;
         if (cJSON_IsNumber(x = get(mc, "tol")))
             job->mc.tol = x->valuedouble;
+    }
+
+    /* ---- biharmonic parameters (defaults from the core) ---- */
+    {
+        dtx_kp_params d;
+        dtx_kp_params_default(&d);
+        job->bh.keypoints = DTX_BH_KEYS_MARKERS;
+        job->bh.candidates = d.candidates;
+        job->bh.eps = d.eps;
+        job->bh.max_keypoints = d.max_keys;
+        job->bh.training_frames = DEFAULT_TRAINING_FRAMES;
+        job->bh.lambda = d.skin.lambda;
+        job->bh.gamma_logr = d.skin.gamma_logr;
+        job->bh.gamma_s = d.skin.gamma_s;
+    }
+    if (bh) {
+        if (cJSON_IsString(x = get(bh, "keypoints")))
+            job->bh.keypoints =
+                strcmp(x->valuestring, "auto") == 0 ? DTX_BH_KEYS_AUTO : DTX_BH_KEYS_MARKERS;
+        if (cJSON_IsNumber(x = get(bh, "candidates")))
+            job->bh.candidates = (int32_t)x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "eps")))
+            job->bh.eps = x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "max_keypoints")))
+            job->bh.max_keypoints = (int32_t)x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "training_frames")))
+            job->bh.training_frames = (int32_t)x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "lambda")))
+            job->bh.lambda = x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "gamma_logr")))
+            job->bh.gamma_logr = x->valuedouble;
+        if (cJSON_IsNumber(x = get(bh, "gamma_s")))
+            job->bh.gamma_s = x->valuedouble;
     }
     return DTX_OK;
 }
@@ -681,6 +717,15 @@ static dtx_status cross_check(fillctx *f, const dtx_job *job, int check_files)
             snprintf(ptr, sizeof ptr, "/targets/%d/markers", (int)i);
             return job_err(f->err, DTX_EJOB, f->name, ptr,
                            "csv markers need \"index_base\" (0 or 1)");
+        }
+        if (job->method == DTX_METHOD_BIHARMONIC &&
+            (tg->npins > 0 || tg->translation == DTX_TRANSLATION_PINS)) {
+            char ptr[64];
+            snprintf(ptr, sizeof ptr, "/targets/%d/%s", (int)i,
+                     tg->translation == DTX_TRANSLATION_PINS ? "translation" : "pins");
+            return job_err(f->err, DTX_EJOB, f->name, ptr,
+                           "method biharmonic does not support pins (the key points place "
+                           "the target; use translation \"fixed\" or \"follow\")");
         }
         if ((st = check_pins(f, tg, (int)i)))
             return st;
@@ -1074,7 +1119,9 @@ char *dtx_job_params_json(const dtx_job *job)
     if (!job || (int)job->method < 0 || (int)job->method >= 4)
         return NULL;
     method = method_names[job->method];
-    sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
+    /* "biharmonic" sorts before "method"; the others after it. */
+    if (job->method != DTX_METHOD_BIHARMONIC)
+        sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
     if (job->method == DTX_METHOD_MULTICOMPONENT) {
         const dtx_mc_job_params *q = &job->mc;
         sb_printf(&b,
@@ -1083,7 +1130,21 @@ char *dtx_job_params_json(const dtx_job *job)
                   q->eps_factor, q->max_iter, q->tol, q->w_laplacian, q->w_match, q->w_orphan,
                   q->w_proximity);
     }
-    if (job->method == DTX_METHOD_SP04 || job->method == DTX_METHOD_MULTICOMPONENT) {
+    if (job->method == DTX_METHOD_BIHARMONIC) {
+        const dtx_bh_job_params *q = &job->bh;
+        sb_printf(&b,
+                  "{\"biharmonic\":{\"candidates\":%d,\"eps\":%.17g,\"gamma_logr\":%.17g,"
+                  "\"gamma_s\":%.17g,\"keypoints\":\"%s\",\"lambda\":%.17g,\"max_keypoints\":%d,"
+                  "\"training_frames\":%d},\"method\":\"biharmonic\"",
+                  (int)q->candidates, q->eps, q->gamma_logr, q->gamma_s,
+                  q->keypoints == DTX_BH_KEYS_AUTO ? "auto" : "markers", q->lambda,
+                  (int)q->max_keypoints, (int)q->training_frames);
+        /* The automatic key points are mapped through sp04's correspondence. */
+        if (q->keypoints == DTX_BH_KEYS_AUTO)
+            sb_printf(&b, ",\"sp04\":");
+    }
+    if (job->method == DTX_METHOD_SP04 || job->method == DTX_METHOD_MULTICOMPONENT ||
+        (job->method == DTX_METHOD_BIHARMONIC && job->bh.keypoints == DTX_BH_KEYS_AUTO)) {
         const dtx_sp04_params *p = &job->sp04;
         int i;
         sb_printf(&b, "{\"max_angle_deg\":%.17g,\"max_distance\":%.17g,\"w_closest\":[",
@@ -1092,7 +1153,7 @@ char *dtx_job_params_json(const dtx_job *job)
             sb_printf(&b, "%s%.17g", i ? "," : "", p->w_closest[i]);
         sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g}", p->w_identity,
                   p->w_smooth);
-    } else {
+    } else if (job->method != DTX_METHOD_BIHARMONIC) {
         /* Methods whose parameters the job struct does not hold yet: the
          * job's own object for the method, canonicalised. */
         cJSON *doc = job->text ? cJSON_Parse(job->text) : NULL;

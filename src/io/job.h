@@ -86,6 +86,23 @@ typedef struct {
     int max_iter;
 } dtx_mc_job_params;
 
+/* Where the biharmonic method's key points come from. */
+typedef enum {
+    DTX_BH_KEYS_MARKERS = 0, /* each target's markers are its key points */
+    DTX_BH_KEYS_AUTO         /* selected on the source, mapped through sp04's correspondence */
+} dtx_bh_keys;
+
+/* biharmonic parameters (defaults in brackets: dtx_kp_params_default,
+ * dtx_skin_params_default; see the schema for their meaning). */
+typedef struct {
+    dtx_bh_keys keypoints;   /* [markers] */
+    int32_t candidates;      /* [100] auto: farthest-point candidates */
+    double eps;              /* [0.03] auto: stop adding at this error */
+    int32_t max_keypoints;   /* [40] auto: at most this many key points */
+    int32_t training_frames; /* [32] frames for the clustering and the selection */
+    double lambda, gamma_logr, gamma_s; /* [0.5, 1, 0.1] fit and clustering weights */
+} dtx_bh_job_params;
+
 typedef struct {
     int version;          /* dtx_job */
     dtx_method method;
@@ -108,6 +125,7 @@ typedef struct {
 
     dtx_sp04_params sp04;  /* also the multicomponent correspondence's weights */
     dtx_mc_job_params mc;
+    dtx_bh_job_params bh;
 } dtx_job;
 
 /* Reads, parses and validates the job at path.  On failure err->msg names
@@ -117,7 +135,8 @@ typedef struct {
  * the text is a syntax error, not a silently shortened string), the schema (unknown
  * keys, types, required fields, enums, ranges), and cross-field rules (csv
  * markers need index_base; pins need translation "pins" or "fixed"; output
- * file must differ from every input file; input files must exist). */
+ * file must differ from every input file; input files must exist; method
+ * biharmonic takes no pins). */
 dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err);
 
 /* The same from a string already in memory; base_dir resolves relative
@@ -145,7 +164,10 @@ void dtx_job_free(dtx_job *job);
  * for cache keys.  Caller frees. */
 char *dtx_job_params_json(const dtx_job *job);
 /* (Format: {"method":"sp04","sp04":{...}} with every parameter, defaults
- * included, keys sorted by byte value at every level, no spaces, numbers
+ * included; multicomponent adds its own object before "sp04"; biharmonic
+ * is {"biharmonic":{...},"method":"biharmonic"}, with "sp04":{...} after
+ * it when its key points are "auto" (they are mapped through sp04's
+ * correspondence); keys sorted by byte value at every level, no spaces, numbers
  * printed with %.17g (needs the default "C" LC_NUMERIC locale).  Methods
  * whose parameters dtx_job does not hold yet get their own object from the
  * job text, canonicalised the same way, or {}.  NULL when out of memory or

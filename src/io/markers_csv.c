@@ -75,6 +75,11 @@ static dtx_status index_field(const char *name, long line, const char *what, con
         trim(&b, &e);
     }
     r = dtx_parse_int64(b, (size_t)(e - b), &v);
+    if (r == -1 && b == e)
+        return dtx_seterr(err, DTX_EPARSE,
+                          "%s:%ld: %s '' is not an integer (the field is empty: every marker "
+                          "needs a source and a target vertex; fill it in)",
+                          name, line, what);
     if (r == -1)
         return dtx_seterr(err, DTX_EPARSE, "%s:%ld: %s '%s' is not an integer", name, line, what,
                           dtx_show_token(b, (size_t)(e - b), show, sizeof show));

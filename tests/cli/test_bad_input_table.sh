@@ -382,7 +382,7 @@ sed -i 's#"dtx_job": 1#"dtx_job": 2#' j_version.json
 reject job-version j_version.h5 'j_version\.json: at /dtx_job: expected 1, got 2' "$DTX" run j_version.json
 job j_method src src tgt
 sed -i 's#"method": "sp04"#"method": "springs"#' j_method.json
-reject job-method j_method.h5 'j_method\.json: /method: this build of dtx runs methods sp04 and multicomponent only' "$DTX" run j_method.json
+reject job-method j_method.h5 'j_method\.json: /method: this build of dtx runs methods sp04, multicomponent and biharmonic only' "$DTX" run j_method.json
 
 # -------------------------------------------------------------- topology
 job j_two src src tgt_two

@@ -1,0 +1,27 @@
+/*
+ * cmd_keypoints.h: `dtx keypoints`, automatic key-point selection on a
+ * source animation (Yang et al. 2018, src/core/keypoints.h), alone or under
+ * mpirun (the candidates are split over the ranks).
+ */
+#ifndef DTX_CMD_KEYPOINTS_H
+#define DTX_CMD_KEYPOINTS_H
+
+/* The usage lines of `dtx keypoints`, for the command's usage text. */
+#define DTX_KEYPOINTS_USAGE                                                                   \
+    "  dtx keypoints FILE.h5 --mesh /meshes/SRC --sequence /sequences/S [--sequence ...]\n"   \
+    "                [--markers /markers/M [--target /meshes/T]] [--name NAME] [-o OUT.h5]\n" \
+    "                [--candidates N] [--eps E] [--max K] [--training-frames N]\n"            \
+    "                [--csv OUT.csv]   (alone or under mpirun)\n"
+
+/* Runs `dtx keypoints` with main's argc/argv (argv[1] == "keypoints");
+ * initialises and finalises MPI.  Selects key points on the source's
+ * frames, prints them (rank 0, stdout) and writes /keypoints/NAME (NAME
+ * defaults to SRC-keys) into FILE.h5 or OUT.h5; with --target and
+ * --markers also /markers/NAME-T, the key points mapped onto T through the
+ * sp04 correspondence; with --csv a marker CSV of them (an empty target
+ * column to fill in without --target).  Returns the exit status, the same
+ * on every rank: 0 on success, 1 on an error (message on stderr from rank
+ * 0; nothing is written), 2 on a usage error (nothing is read). */
+int dtx_cmd_keypoints(int argc, char **argv);
+
+#endif /* DTX_CMD_KEYPOINTS_H */
