@@ -297,3 +297,130 @@ int32_t dtx_bvh_closest(const dtx_bvh *b, const double p[3], double max_dist,
     }
     return best;
 }
+
+/* ------------------------------------------------------------------ */
+/* Ray casting                                                         */
+/* ------------------------------------------------------------------ */
+
+/* Entry parameter of the ray o + t d into the node's box, clipped to
+ * [tmin, tmax]; INFINITY when the ray misses it there (slab test; inv = 1/d
+ * per axis, +-inf for a zero component). */
+static double box_entry(const bvh_node *n, const double *o, const double *inv, double tmin,
+                        double tmax)
+{
+    for (int k = 0; k < 3; k++) {
+        double t0 = (n->lo[k] - o[k]) * inv[k], t1 = (n->hi[k] - o[k]) * inv[k];
+        if (t0 > t1) {
+            double tmp = t0;
+            t0 = t1;
+            t1 = tmp;
+        }
+        /* 0 * inf (origin on a slab plane of a zero direction) is NaN:
+         * treat it as inside that slab. */
+        if (t0 == t0 && t0 > tmin)
+            tmin = t0;
+        if (t1 == t1 && t1 < tmax)
+            tmax = t1;
+        if (tmin > tmax)
+            return INFINITY;
+    }
+    return tmin;
+}
+
+/* Moller-Trumbore: t of the hit of the ray with triangle (a, b, c) and the
+ * barycentric coordinates (u of b, v of c); 0 when there is none (parallel
+ * or outside the triangle). */
+static int ray_triangle(const double *o, const double *d, const double *a, const double *b,
+                        const double *c, double *t, double *u, double *v)
+{
+    double e1[3], e2[3], p[3], q[3], s[3], det, inv;
+    for (int k = 0; k < 3; k++) {
+        e1[k] = b[k] - a[k];
+        e2[k] = c[k] - a[k];
+        s[k] = o[k] - a[k];
+    }
+    p[0] = d[1] * e2[2] - d[2] * e2[1];
+    p[1] = d[2] * e2[0] - d[0] * e2[2];
+    p[2] = d[0] * e2[1] - d[1] * e2[0];
+    det = e1[0] * p[0] + e1[1] * p[1] + e1[2] * p[2];
+    if (det == 0.0)
+        return 0;
+    inv = 1.0 / det;
+    *u = (s[0] * p[0] + s[1] * p[1] + s[2] * p[2]) * inv;
+    if (!(*u >= 0.0 && *u <= 1.0))
+        return 0;
+    q[0] = s[1] * e1[2] - s[2] * e1[1];
+    q[1] = s[2] * e1[0] - s[0] * e1[2];
+    q[2] = s[0] * e1[1] - s[1] * e1[0];
+    *v = (d[0] * q[0] + d[1] * q[1] + d[2] * q[2]) * inv;
+    if (!(*v >= 0.0 && *u + *v <= 1.0))
+        return 0;
+    *t = (e2[0] * q[0] + e2[1] * q[1] + e2[2] * q[2]) * inv;
+    return 1;
+}
+
+int32_t dtx_bvh_raycast(const dtx_bvh *b, const double o[3], const double d[3], double tmin,
+                        double tmax, dtx_bvh_filter filter, const void *ctx, double *tout,
+                        double bary[3])
+{
+    int32_t stack[2 * MAX_DEPTH + 8];
+    int sp = 0;
+    int32_t best = -1;
+    double best_t = tmax, best_u = 0.0, best_v = 0.0, inv[3];
+    if (b->nprim == 0 || !b->F)
+        return -1;
+    for (int k = 0; k < 3; k++)
+        inv[k] = 1.0 / d[k];
+    if (box_entry(&b->nodes[0], o, inv, tmin, tmax) == INFINITY)
+        return -1;
+    stack[sp++] = 0;
+    while (sp > 0) {
+        const bvh_node *n = &b->nodes[stack[--sp]];
+        if (box_entry(n, o, inv, tmin, best_t) == INFINITY)
+            continue;
+        if (n->count > 0) {
+            for (int32_t i = n->first; i < n->first + n->count; i++) {
+                int32_t prim = b->order[i];
+                const int32_t *f = b->F + 3 * prim;
+                const double *x0 = b->X + 3 * f[0], *x1 = b->X + 3 * f[1], *x2 = b->X + 3 * f[2];
+                double t, u, v;
+                /* Ties in t go to the lower index (best_t starts at tmax,
+                 * which is excluded). */
+                if (!ray_triangle(o, d, x0, x1, x2, &t, &u, &v) || !(t > tmin) ||
+                    !(t < best_t || (t == best_t && best >= 0 && prim < best)))
+                    continue;
+                if (filter && !filter(ctx, prim))
+                    continue;
+                best = prim;
+                best_t = t;
+                best_u = u;
+                best_v = v;
+            }
+        } else {
+            int32_t l = n->first, r = n->first + 1;
+            double tl = box_entry(&b->nodes[l], o, inv, tmin, best_t);
+            double tr = box_entry(&b->nodes[r], o, inv, tmin, best_t);
+            /* The nearer child is visited first. */
+            if (tl <= tr) {
+                if (tr != INFINITY)
+                    stack[sp++] = r;
+                if (tl != INFINITY)
+                    stack[sp++] = l;
+            } else {
+                if (tl != INFINITY)
+                    stack[sp++] = l;
+                stack[sp++] = r;
+            }
+        }
+    }
+    if (best >= 0) {
+        if (tout)
+            *tout = best_t;
+        if (bary) {
+            bary[0] = 1.0 - best_u - best_v;
+            bary[1] = best_u;
+            bary[2] = best_v;
+        }
+    }
+    return best;
+}

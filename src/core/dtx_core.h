@@ -76,6 +76,16 @@ int32_t dtx_bvh_closest(const dtx_bvh *bvh, const double p[3], double max_dist,
 double dtx_closest_point_triangle(const double p[3], const double a[3], const double b[3],
                                   const double c[3], double out[3]);
 
+/* First allowed triangle hit by the ray o + t d with tmin < t < tmax (d
+ * need not be unit length; t is in units of |d|), from either side.  Tree
+ * over triangles only (returns -1 for a point set).  Returns the triangle
+ * (-1 if none; ties in t go to the lower index) and, when non-NULL, its t
+ * and the barycentric coordinates bary (of F[3f], F[3f+1], F[3f+2]) of the
+ * hit point.  Moller-Trumbore intersection; thread-safe. */
+int32_t dtx_bvh_raycast(const dtx_bvh *bvh, const double o[3], const double d[3], double tmin,
+                        double tmax, dtx_bvh_filter filter, const void *ctx, double *t,
+                        double bary[3]);
+
 /* ------------------------------------------------------------------ */
 /* Alignment (align.c)                                                 */
 /* ------------------------------------------------------------------ */
