@@ -21,6 +21,7 @@
  * 1 (and, by default, the source is aligned on the markers by a similarity
  * transform), which makes the weights and thresholds scale-invariant.
  */
+#include "cholmod_serial.h"
 #include "correspondence_internal.h"
 #include "dtx_core.h"
 
@@ -247,31 +248,6 @@ static int normal_filter(const void *ctx, int32_t prim)
 }
 
 /* ------------------------------------------------------------------ */
-/* CHOLMOD without its own OpenMP teams                                */
-/* ------------------------------------------------------------------ */
-
-/* CHOLMOD's supernodal factorisation runs some of its loops on OpenMP
- * teams of a size fixed when it was built (4 in Debian's), whatever
- * OMP_NUM_THREADS says.  On two cores those teams cost far more than they
- * bring: on the 174,000-unknown correspondence system of the pebble camel
- * (tests/bench/bench_mc.c) a factorisation takes 1.15 s with them and 0.6 s
- * without (2 to 10 s with OMP_THREAD_LIMIT=2).  Inside
- * an active parallel region nested regions get one thread (OpenMP's
- * default max-active-levels is 1), so the factorisation is called from the
- * first thread of a team of two while the second waits; the loops only
- * copy and clear, so the result is the same bits either way. */
-static int factorize_serial(cholmod_sparse *K, cholmod_factor *L, cholmod_common *cc)
-{
-    int ok = 0;
-#pragma omp parallel num_threads(2)
-    {
-#pragma omp master
-        ok = cholmod_factorize(K, L, cc);
-    }
-    return ok;
-}
-
-/* ------------------------------------------------------------------ */
 /* The deformation phases                                              */
 /* ------------------------------------------------------------------ */
 
@@ -445,7 +421,7 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                     Bx[(size_t)c * nfree + fv] += wc * cp[3 * (size_t)v + c];
             }
         }
-        if (!factorize_serial(K, L, &cc) || cc.status != CHOLMOD_OK) {
+        if (!dtx__cholmod_factorize_serial(K, L, &cc) || cc.status != CHOLMOD_OK) {
             st = dtx_seterr(err, DTX_ESOLVE,
                             "correspondence system could not be factored in phase %d (CHOLMOD "
                             "status %d); are the markers spread over the whole mesh?",

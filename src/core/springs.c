@@ -42,6 +42,7 @@
  * rotation, and the identity for degenerate data.
  */
 #include "springs.h"
+#include "cholmod_serial.h"
 #include "coarsen.h"
 #include "vec3.h"
 
@@ -1277,27 +1278,11 @@ static void assemble(const level *L, const double *rtil, const double *x, int pr
             Hx[L->colp[3 * f + b + 1] - 1] += L->mu;
 }
 
-/* CHOLMOD's supernodal factorisation runs some loops on OpenMP teams of a
- * size fixed when it was built (4 in Debian's), whatever OMP_NUM_THREADS
- * says; on two shared cores those teams cost many times what they bring.
- * Inside an active parallel region (dtx_springs_apply with 2 or more
- * threads) nested regions get one thread; otherwise the factorisation is
- * called from the first thread of a team of two while the second waits, as
- * in correspondence.c.  The loops only copy and clear, so the result is the
- * same bits either way.  Returns 1 when L is a complete factor. */
+/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_serial.h).
+ * Returns 1 when L is a complete factor. */
 static int factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc)
 {
-    int ok = 0;
-#ifdef _OPENMP
-    if (!omp_in_parallel()) {
-#pragma omp parallel num_threads(2)
-        {
-#pragma omp master
-            ok = cholmod_factorize(A, L, cc);
-        }
-    } else
-#endif
-        ok = cholmod_factorize(A, L, cc);
+    int ok = dtx__cholmod_factorize_serial(A, L, cc);
     return ok && cc->status >= CHOLMOD_OK && L->minor == L->n;
 }
 
