@@ -18,6 +18,7 @@
 
 #include "dtx_core.h"
 #include "keypoints.h"
+#include "springs.h"
 
 #include "json_schema.h"
 
@@ -465,7 +466,7 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 {
     const cJSON *src = get(doc, "source"), *tgts = get(doc, "targets"), *out = get(doc, "output");
     const cJSON *sp = get(doc, "sp04"), *mc = get(doc, "multicomponent"), *x;
-    const cJSON *bh = get(doc, "biharmonic");
+    const cJSON *bh = get(doc, "biharmonic"), *spr = get(doc, "springs");
     dtx_status st;
     int i, m;
 
@@ -605,6 +606,41 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         if (cJSON_IsNumber(x = get(bh, "gamma_s")))
             job->bh.gamma_s = x->valuedouble;
     }
+
+    /* ---- springs parameters (defaults from the core) ---- */
+    {
+        dtx_springs_params d;
+        dtx_springs_params_default(&d);
+        job->springs.bending = d.bending;
+        job->springs.internal = d.internal;
+        job->springs.levels = d.levels;
+        job->springs.coarse_min = d.coarse_min;
+        job->springs.start_rest = d.start == DTX_SPRINGS_START_REST;
+        job->springs.max_iter = d.max_iter;
+        job->springs.tol = d.tol;
+        job->springs.coarse_max_iter = d.coarse_max_iter;
+        job->springs.coarse_tol = d.coarse_tol;
+    }
+    if (spr) {
+        if (cJSON_IsBool(x = get(spr, "bending")))
+            job->springs.bending = cJSON_IsTrue(x);
+        if (cJSON_IsBool(x = get(spr, "internal")))
+            job->springs.internal = cJSON_IsTrue(x);
+        if (cJSON_IsNumber(x = get(spr, "levels")))
+            job->springs.levels = (int)x->valuedouble;
+        if (cJSON_IsNumber(x = get(spr, "coarse_min")))
+            job->springs.coarse_min = (int32_t)x->valuedouble;
+        if (cJSON_IsString(x = get(spr, "start")))
+            job->springs.start_rest = strcmp(x->valuestring, "rest") == 0;
+        if (cJSON_IsNumber(x = get(spr, "max_iter")))
+            job->springs.max_iter = (int)x->valuedouble;
+        if (cJSON_IsNumber(x = get(spr, "tol")))
+            job->springs.tol = x->valuedouble;
+        if (cJSON_IsNumber(x = get(spr, "coarse_max_iter")))
+            job->springs.coarse_max_iter = (int)x->valuedouble;
+        if (cJSON_IsNumber(x = get(spr, "coarse_tol")))
+            job->springs.coarse_tol = x->valuedouble;
+    }
     return DTX_OK;
 }
 
@@ -717,6 +753,13 @@ static dtx_status cross_check(fillctx *f, const dtx_job *job, int check_files)
             snprintf(ptr, sizeof ptr, "/targets/%d/markers", (int)i);
             return job_err(f->err, DTX_EJOB, f->name, ptr,
                            "csv markers need \"index_base\" (0 or 1)");
+        }
+        if (!tg->markers.csv && !tg->markers.file && job->method != DTX_METHOD_SPRINGS) {
+            char ptr[64];
+            snprintf(ptr, sizeof ptr, "/targets/%d", (int)i);
+            return job_err(f->err, DTX_EJOB, f->name, ptr,
+                           "missing required key \"markers\" (only method springs, onto a "
+                           "target with the source's own connectivity, works without them)");
         }
         if (job->method == DTX_METHOD_BIHARMONIC &&
             (tg->npins > 0 || tg->translation == DTX_TRANSLATION_PINS)) {
@@ -1041,77 +1084,6 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
     b->len += (size_t)n;
 }
 
-static void sb_string(sbuf *b, const char *s)
-{
-    sb_printf(b, "\"");
-    for (; *s; s++) {
-        unsigned char ch = (unsigned char)*s;
-        if (ch == '"' || ch == '\\')
-            sb_printf(b, "\\%c", ch);
-        else if (ch < 0x20)
-            sb_printf(b, "\\u%04x", ch);
-        else
-            sb_printf(b, "%c", ch);
-    }
-    sb_printf(b, "\"");
-}
-
-static int member_cmp(const void *a, const void *b)
-{
-    const cJSON *x = *(const cJSON *const *)a, *y = *(const cJSON *const *)b;
-    return strcmp(x->string, y->string);
-}
-
-/* v as canonical JSON: object keys sorted by byte value, no spaces,
- * numbers with %.17g. */
-static void sb_canonical(sbuf *b, const cJSON *v, int depth)
-{
-    const cJSON *m;
-    if (depth > 200) {
-        b->failed = 1;
-        return;
-    }
-    if (cJSON_IsObject(v)) {
-        int n = cJSON_GetArraySize(v), i = 0;
-        const cJSON **ms = dtx_alloc((size_t)n, sizeof *ms, 0);
-        if (!ms) {
-            b->failed = 1;
-            return;
-        }
-        for (m = v->child; m && i < n; m = m->next)
-            ms[i++] = m;
-        qsort(ms, (size_t)n, sizeof *ms, member_cmp);
-        sb_printf(b, "{");
-        for (i = 0; i < n; i++) {
-            if (i)
-                sb_printf(b, ",");
-            sb_string(b, ms[i]->string);
-            sb_printf(b, ":");
-            sb_canonical(b, ms[i], depth + 1);
-        }
-        sb_printf(b, "}");
-        free(ms);
-    } else if (cJSON_IsArray(v)) {
-        sb_printf(b, "[");
-        for (m = v->child; m; m = m->next) {
-            sb_canonical(b, m, depth + 1);
-            if (m->next)
-                sb_printf(b, ",");
-        }
-        sb_printf(b, "]");
-    } else if (cJSON_IsString(v)) {
-        sb_string(b, v->valuestring);
-    } else if (cJSON_IsNumber(v)) {
-        sb_printf(b, "%.17g", v->valuedouble);
-    } else if (cJSON_IsTrue(v)) {
-        sb_printf(b, "true");
-    } else if (cJSON_IsFalse(v)) {
-        sb_printf(b, "false");
-    } else {
-        sb_printf(b, "null");
-    }
-}
-
 char *dtx_job_params_json(const dtx_job *job)
 {
     sbuf b = {NULL, 0, 0, 0};
@@ -1120,7 +1092,7 @@ char *dtx_job_params_json(const dtx_job *job)
         return NULL;
     method = method_names[job->method];
     /* "biharmonic" sorts before "method"; the others after it. */
-    if (job->method != DTX_METHOD_BIHARMONIC)
+    if (job->method != DTX_METHOD_BIHARMONIC && job->method != DTX_METHOD_SPRINGS)
         sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
     if (job->method == DTX_METHOD_MULTICOMPONENT) {
         const dtx_mc_job_params *q = &job->mc;
@@ -1143,7 +1115,10 @@ char *dtx_job_params_json(const dtx_job *job)
         if (q->keypoints == DTX_BH_KEYS_AUTO)
             sb_printf(&b, ",\"sp04\":");
     }
+    if (job->method == DTX_METHOD_SPRINGS)
+        sb_printf(&b, "{\"method\":\"springs\",\"sp04\":");
     if (job->method == DTX_METHOD_SP04 || job->method == DTX_METHOD_MULTICOMPONENT ||
+        job->method == DTX_METHOD_SPRINGS ||
         (job->method == DTX_METHOD_BIHARMONIC && job->bh.keypoints == DTX_BH_KEYS_AUTO)) {
         const dtx_sp04_params *p = &job->sp04;
         int i;
@@ -1153,16 +1128,16 @@ char *dtx_job_params_json(const dtx_job *job)
             sb_printf(&b, "%s%.17g", i ? "," : "", p->w_closest[i]);
         sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g}", p->w_identity,
                   p->w_smooth);
-    } else if (job->method != DTX_METHOD_BIHARMONIC) {
-        /* Methods whose parameters the job struct does not hold yet: the
-         * job's own object for the method, canonicalised. */
-        cJSON *doc = job->text ? cJSON_Parse(job->text) : NULL;
-        const cJSON *obj = doc ? get(doc, method) : NULL;
-        if (cJSON_IsObject(obj))
-            sb_canonical(&b, obj, 0);
-        else
-            sb_printf(&b, "{}");
-        cJSON_Delete(doc);
+        if (job->method == DTX_METHOD_SPRINGS) {
+            const dtx_springs_job_params *q = &job->springs;
+            sb_printf(&b,
+                      ",\"springs\":{\"bending\":%s,\"coarse_max_iter\":%d,\"coarse_min\":%d,"
+                      "\"coarse_tol\":%.17g,\"internal\":%s,\"levels\":%d,\"max_iter\":%d,"
+                      "\"start\":\"%s\",\"tol\":%.17g}",
+                      q->bending ? "true" : "false", q->coarse_max_iter, (int)q->coarse_min,
+                      q->coarse_tol, q->internal ? "true" : "false", q->levels, q->max_iter,
+                      q->start_rest ? "rest" : "linear", q->tol);
+        }
     }
     sb_printf(&b, "}");
     if (b.failed) {

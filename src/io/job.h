@@ -103,6 +103,19 @@ typedef struct {
     double lambda, gamma_logr, gamma_s; /* [0.5, 1, 0.1] fit and clustering weights */
 } dtx_bh_job_params;
 
+/* springs parameters (defaults in brackets: dtx_springs_params_default;
+ * see the schema for their meaning). */
+typedef struct {
+    int bending, internal;      /* [1, 1] */
+    int levels;                 /* [4] */
+    int32_t coarse_min;         /* [150] */
+    int start_rest;             /* [0] 1: start "rest", 0: "linear" */
+    int max_iter;               /* [100] */
+    double tol;                 /* [1e-8] */
+    int coarse_max_iter;        /* [50] */
+    double coarse_tol;          /* [1e-5] */
+} dtx_springs_job_params;
+
 typedef struct {
     int version;          /* dtx_job */
     dtx_method method;
@@ -126,6 +139,7 @@ typedef struct {
     dtx_sp04_params sp04;  /* also the multicomponent correspondence's weights */
     dtx_mc_job_params mc;
     dtx_bh_job_params bh;
+    dtx_springs_job_params springs;
 } dtx_job;
 
 /* Reads, parses and validates the job at path.  On failure err->msg names
@@ -136,7 +150,9 @@ typedef struct {
  * keys, types, required fields, enums, ranges), and cross-field rules (csv
  * markers need index_base; pins need translation "pins" or "fixed"; output
  * file must differ from every input file; input files must exist; method
- * biharmonic takes no pins). */
+ * biharmonic takes no pins; markers are required except with method
+ * springs, where a target without them must share the source's
+ * connectivity, which `dtx run` checks). */
 dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err);
 
 /* The same from a string already in memory; base_dir resolves relative
@@ -164,14 +180,14 @@ void dtx_job_free(dtx_job *job);
  * for cache keys.  Caller frees. */
 char *dtx_job_params_json(const dtx_job *job);
 /* (Format: {"method":"sp04","sp04":{...}} with every parameter, defaults
- * included; multicomponent adds its own object before "sp04"; biharmonic
+ * included; multicomponent adds its own object before "sp04", springs its
+ * own after it (the proxy of a target of other connectivity is sp04's
+ * correspondence); biharmonic
  * is {"biharmonic":{...},"method":"biharmonic"}, with "sp04":{...} after
  * it when its key points are "auto" (they are mapped through sp04's
  * correspondence); keys sorted by byte value at every level, no spaces, numbers
- * printed with %.17g (needs the default "C" LC_NUMERIC locale).  Methods
- * whose parameters dtx_job does not hold yet get their own object from the
- * job text, canonicalised the same way, or {}.  NULL when out of memory or
- * job is NULL.  Thread-safe.) */
+ * printed with %.17g (needs the default "C" LC_NUMERIC locale).  NULL when
+ * out of memory or job is NULL.  Thread-safe.) */
 
 /* The job schema, schemas/job.schema.json, as built into the binary
  * (job_schema_text.c) so that dtx works without the source tree: a

@@ -315,12 +315,25 @@ static void test_defaults(void)
         CHECK(strcmp(err->msg, "job: at /dtx_job: expected 1, got 3") == 0);
     }
 
-    /* Other methods' objects are free-form for now. */
+    /* The springs object: parsed, unknown keys and bad values rejected. */
     CHECK_OK(parse(job_text(NULL, NULL, NULL,
-                            ",\"springs\":{\"anything\":[1,{\"x\":null}]},\"multicomponent\":{}"),
+                            ",\"springs\":{\"levels\":2,\"start\":\"rest\",\"bending\":false,"
+                            "\"tol\":1e-6},\"multicomponent\":{}"),
                    "/data/jobs", 0, &job, err),
              err);
+    CHECK_EQ_INT(job.springs.levels, 2);
+    CHECK_EQ_INT(job.springs.start_rest, 1);
+    CHECK_EQ_INT(job.springs.bending, 0);
+    CHECK_EQ_INT(job.springs.internal, 1);
+    CHECK(job.springs.tol == 1e-6);
+    CHECK_EQ_INT(job.springs.max_iter, 100);
     dtx_job_free(&job);
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"anything\":1}"),
+                "at /springs: unknown key \"anything\"");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"levels\":9}"),
+                "at /springs/levels:");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"start\":\"coarse\"}"),
+                "at /springs/start: expected one of linear, rest");
 }
 
 /* jobs/cat-lion.json, the demo job, parses (its files need not exist). */
@@ -416,6 +429,26 @@ static void test_schema_violations(void)
                 "job.json: at /source: missing required key \"mesh\"");
     EXPECT_FAIL(job_text(NULL, NULL, "{\"dtype\":\"float32\"}", NULL),
                 "at /output: missing required key \"file\"");
+    /* Markers: required except with method springs. */
+    EXPECT_FAIL(job_text(NULL, "[{\"file\":\"a.h5\",\"mesh\":\"/m\"}]", NULL, NULL),
+                "job.json: at /targets/0: missing required key \"markers\" (only method "
+                "springs");
+    {
+        char t[8192];
+        dtx_job job;
+        dtx_error e;
+        char *m;
+        snprintf(t, sizeof t, "%s", job_text(NULL, "[{\"file\":\"a.h5\",\"mesh\":\"/m\"}]", NULL, NULL));
+        m = strstr(t, "\"sp04\"");
+        CHECK(m != NULL);
+        if (m) {
+            char u[8192];
+            snprintf(u, sizeof u, "%.*s\"springs\"%s", (int)(m - t), t, m + 6);
+            CHECK_OK(parse(u, "/data", 0, &job, &e), &e);
+            CHECK(job.targets && !job.targets[0].markers.csv && !job.targets[0].markers.file);
+            dtx_job_free(&job);
+        }
+    }
     EXPECT_FAIL(job_text(NULL, "[{\"file\":\"a.h5\",\"mesh\":\"/m\",\"markers\":{}}]", NULL, NULL),
                 "at /targets/0/markers: matches none of the allowed forms: CSV markers");
     /* Bad enums and constants. */
@@ -769,13 +802,11 @@ static void test_params_json(void)
     free(p);
     dtx_job_free(&job);
 
-    /* Other methods: their own object, keys sorted at every level. */
+    /* springs: sp04's object (the proxy's correspondence), then its own. */
     {
         char text[8192];
         snprintf(text, sizeof text, "%s",
-                 job_text(NULL, NULL, NULL,
-                          ",\"springs\":{\"k\":0.1,\"b\":[true,null,\"x\\\"y\"],"
-                          "\"a\":{\"z\":1,\"y\":-2}}"));
+                 job_text(NULL, NULL, NULL, ",\"springs\":{\"levels\":0,\"internal\":false}"));
         char *m = strstr(text, "\"method\":\"sp04\"");
         char springs[4096];
         CHECK(m != NULL);
@@ -786,8 +817,11 @@ static void test_params_json(void)
         CHECK_OK(parse(springs, "/data", 0, &job, err), err);
         CHECK_EQ_INT(job.method, DTX_METHOD_SPRINGS);
         p = dtx_job_params_json(&job);
-        CHECK(p && strcmp(p, "{\"method\":\"springs\",\"springs\":{\"a\":{\"y\":-2,\"z\":1},"
-                             "\"b\":[true,null,\"x\\\"y\"],\"k\":0.10000000000000001}}") == 0);
+        CHECK(p && strstr(p, "{\"method\":\"springs\",\"sp04\":{\"max_angle_deg\":90,") == p);
+        CHECK(p && strstr(p, "},\"springs\":{\"bending\":true,\"coarse_max_iter\":50,"
+                             "\"coarse_min\":150,\"coarse_tol\":1.0000000000000001e-05,"
+                             "\"internal\":false,\"levels\":0,\"max_iter\":100,"
+                             "\"start\":\"linear\",\"tol\":1e-08}}") != NULL);
         free(p);
         dtx_job_free(&job);
     }
