@@ -2318,6 +2318,7 @@ static void result_init(dtx_h5_result *res, hid_t file)
     memset(res, 0, sizeof *res);
     res->file = file;
     res->group = res->positions = res->residual = res->frame_done = H5I_INVALID_HID;
+    res->frame_stats = H5I_INVALID_HID;
 }
 
 /* Opens residual and frame_done of an open result group and checks them. */
@@ -2433,6 +2434,22 @@ dtx_status dtx_h5_result_open(hid_t file, const char *group, int resume, dtx_h5_
                              &res->is_f64, &res->chunk_frames, err)) != DTX_OK ||
         (st = open_result_1d(res, err)) != DTX_OK)
         goto fail;
+    {
+        char path[DTX_H5_PATH_MAX];
+        join_path(res->path, "frame_stats", path, sizeof path);
+        if (link_exists(file, path)) {
+            static const hsize_t want[2] = {0, DTX_H5_FRAME_STATS};
+            hsize_t dims[2] = {0, 0};
+            if ((st = open_checked(file, path, H5T_INTEGER, 2, want, "T x 3", &res->frame_stats,
+                                   dims, err)) != DTX_OK)
+                goto fail;
+            if ((int64_t)dims[0] != res->nframes) {
+                st = ferr(err, DTX_EFORMAT, file, path, "has %llu rows for %lld frames",
+                          (unsigned long long)dims[0], (long long)res->nframes);
+                goto fail;
+            }
+        }
+    }
     res->group = H5Gopen2(file, res->path, H5P_DEFAULT);
     if (res->group < 0) {
         st = h5err(err, file, res->path, "cannot open the group");
@@ -2489,6 +2506,77 @@ dtx_status dtx_h5_result_write(dtx_h5_result *res, int64_t first, int64_t count,
     }
     close_dxpl(dxpl);
     return st;
+}
+
+dtx_status dtx_h5_result_add_frame_stats(dtx_h5_result *res, dtx_error *err)
+{
+    static const int32_t fill = -1;
+    hid_t dcpl;
+    hsize_t dims[2] = {(hsize_t)res->nframes, DTX_H5_FRAME_STATS};
+    char path[DTX_H5_PATH_MAX];
+    dtx_status st;
+    join_path(res->path, "frame_stats", path, sizeof path);
+    if (res->frame_stats >= 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "already exists");
+    dcpl = H5Pcreate(H5P_DATASET_CREATE);
+    if (dcpl < 0 || H5Pset_fill_value(dcpl, H5T_NATIVE_INT32, &fill) < 0 ||
+        H5Pset_alloc_time(dcpl, H5D_ALLOC_TIME_EARLY) < 0 ||
+        H5Pset_fill_time(dcpl, H5D_FILL_TIME_ALLOC) < 0) {
+        CLOSE_ID(H5Pclose, dcpl);
+        return h5err(err, res->file, path, "cannot set up the dataset");
+    }
+    st = create_write(res->group, "frame_stats", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, dims, dcpl,
+                      NULL, err);
+    CLOSE_ID(H5Pclose, dcpl);
+    if (st == DTX_OK)
+        st = dtx_h5_write_attr_str(res->group, "frame_stats", "columns",
+                                   DTX_H5_FRAME_STATS_COLUMNS, err);
+    if (st == DTX_OK && (res->frame_stats = H5Dopen2(res->group, "frame_stats", H5P_DEFAULT)) < 0)
+        st = h5err(err, res->file, path, "cannot open");
+    return st;
+}
+
+dtx_status dtx_h5_result_write_frame_stats(dtx_h5_result *res, int64_t first, int64_t count,
+                                           const int32_t *stats, int collective, dtx_error *err)
+{
+    static const hsize_t inner[1] = {DTX_H5_FRAME_STATS};
+    char path[DTX_H5_PATH_MAX];
+    hid_t dxpl;
+    dtx_status st = DTX_OK;
+    join_path(res->path, "frame_stats", path, sizeof path);
+    if (res->frame_stats < 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_stats");
+    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
+        return st;
+    if (count == 0 && (!res->parallel || !collective))
+        return DTX_OK;
+    dxpl = make_dxpl(res->parallel, collective);
+    if (dxpl < 0)
+        return h5err(err, res->file, path, "cannot set up collective transfer");
+    if (slab_io(res->frame_stats, 1, 2, first, count, inner, H5T_NATIVE_INT32, (void *)stats,
+                dxpl) < 0)
+        st = h5err(err, res->file, path, "cannot write frames [%lld, %lld)", (long long)first,
+                   (long long)(first + count));
+    close_dxpl(dxpl);
+    return st;
+}
+
+dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t first,
+                                          int64_t count, int32_t *stats, dtx_error *err)
+{
+    static const hsize_t inner[1] = {DTX_H5_FRAME_STATS};
+    char path[DTX_H5_PATH_MAX];
+    dtx_status st;
+    join_path(res->path, "frame_stats", path, sizeof path);
+    if (res->frame_stats < 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_stats");
+    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
+        return st;
+    if (count > 0 && slab_io(res->frame_stats, 0, 2, first, count, inner, H5T_NATIVE_INT32,
+                             stats, H5P_DEFAULT) < 0)
+        return h5err(err, res->file, path, "cannot read frames [%lld, %lld)", (long long)first,
+                     (long long)(first + count));
+    return DTX_OK;
 }
 
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,
@@ -2583,6 +2671,7 @@ void dtx_h5_result_close(dtx_h5_result *res)
 {
     if (!res)
         return;
+    CLOSE_ID(H5Dclose, res->frame_stats);
     CLOSE_ID(H5Dclose, res->frame_done);
     CLOSE_ID(H5Dclose, res->residual);
     CLOSE_ID(H5Dclose, res->positions);

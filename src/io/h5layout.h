@@ -400,6 +400,7 @@ typedef struct {
 typedef struct {
     hid_t file;                    /* not owned */
     hid_t group, positions, residual, frame_done; /* owned */
+    hid_t frame_stats;             /* owned; H5I_INVALID_HID when the result has none */
     int64_t nframes;               /* T */
     int32_t nv;
     int is_f64;
@@ -444,6 +445,32 @@ dtx_status dtx_h5_result_open(hid_t file, const char *group, int resume, dtx_h5_
 dtx_status dtx_h5_result_write(dtx_h5_result *res, int64_t first, int64_t count,
                                const double *positions, const double *residual, int collective,
                                dtx_error *err);
+
+/* Optional per-frame solver figures of a result (method springs): the
+ * dataset frame_stats, int32 T x DTX_H5_FRAME_STATS, fill -1 (not yet
+ * written), columns in this order (also in its attribute "columns"):
+ * iterations (Newton steps on the mesh itself), converged (1 when the
+ * solve met its stopping test, 0 when it ran out of iterations), inverted
+ * (triangles of the result turned over against the source's rotation). */
+#define DTX_H5_FRAME_STATS 3
+#define DTX_H5_FRAME_STATS_COLUMNS "iterations converged inverted"
+
+/* Adds frame_stats to a result just created (collective in parallel, as
+ * dtx_h5_result_create).  dtx_h5_result_open opens it when present. */
+dtx_status dtx_h5_result_add_frame_stats(dtx_h5_result *res, dtx_error *err);
+
+/* Writes rows [first, first+count) of frame_stats (count x
+ * DTX_H5_FRAME_STATS int32); call before dtx_h5_result_write of the same
+ * frames, which marks them done.  collective as for dtx_h5_result_write.
+ * DTX_EINVAL when the result has no frame_stats. */
+dtx_status dtx_h5_result_write_frame_stats(dtx_h5_result *res, int64_t first, int64_t count,
+                                           const int32_t *stats, int collective,
+                                           dtx_error *err);
+
+/* Reads rows [first, first+count) of frame_stats (caller-allocated count x
+ * DTX_H5_FRAME_STATS); DTX_EINVAL when the result has none. */
+dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t first,
+                                          int64_t count, int32_t *stats, dtx_error *err);
 
 /* Reads frames [first, first+count) of positions (count x nv x 3 doubles,
  * caller-allocated) and, when residual != NULL, the residuals (count). */

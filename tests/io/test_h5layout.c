@@ -842,6 +842,26 @@ static void test_results(void)
     /* Nothing written yet: frame_done 0, residual NaN. */
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
     CHECK_EQ_INT(done[0] + done[9], 0);
+    /* Per-frame solver figures: absent until added, -1 until written. */
+    {
+        int32_t fs[T * DTX_H5_FRAME_STATS], got[T * DTX_H5_FRAME_STATS];
+        for (int i = 0; i < T * DTX_H5_FRAME_STATS; i++)
+            fs[i] = 100 + i;
+        CHECK(r.frame_stats < 0);
+        CHECK_EQ_INT(dtx_h5_result_write_frame_stats(&r, 0, 1, fs, 0, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_add_frame_stats(&r, &e), &e);
+        CHECK_EQ_INT(dtx_h5_result_add_frame_stats(&r, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_read_frame_stats(&r, 0, T, got, &e), &e);
+        CHECK(got[0] == -1 && got[T * DTX_H5_FRAME_STATS - 1] == -1);
+        CHECK_OK(dtx_h5_result_write_frame_stats(&r, 2, 3, fs, 0, &e), &e);
+        CHECK_EQ_INT(dtx_h5_result_write_frame_stats(&r, 9, 2, fs, 0, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_read_frame_stats(&r, 1, 5, got, &e), &e);
+        CHECK(got[0] == -1 && got[3] == 100 && got[11] == 108 && got[12] == -1);
+        CHECK_OK(dtx_h5_read_attr_str(r.group, "frame_stats", "columns", &s, &e), &e);
+        CHECK(s && strcmp(s, "iterations converged inverted") == 0);
+        free(s);
+        s = NULL;
+    }
     CHECK_OK(dtx_h5_result_write(&r, 0, 4, X, res, 0, &e), &e);
     CHECK_OK(dtx_h5_result_write(&r, 4, 4, X + 4 * NV * 3, NULL, 0, &e), &e);
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
@@ -861,6 +881,12 @@ static void test_results(void)
     CHECK_EQ_INT(r.nv, NV);
     CHECK_EQ_INT(r.chunk_frames, 4);
     CHECK_EQ_INT(r.committed, 0);
+    CHECK(r.frame_stats >= 0); /* reopened with the result */
+    {
+        int32_t got[DTX_H5_FRAME_STATS];
+        CHECK_OK(dtx_h5_result_read_frame_stats(&r, 4, 1, got, &e), &e);
+        CHECK(got[0] == 106 && got[2] == 108);
+    }
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
     CHECK(done[7] == 1 && done[8] == 0);
     CHECK_OK(dtx_h5_result_write(&r, 8, 2, X + 8 * NV * 3, res + 8, 0, &e), &e);
