@@ -1,5 +1,5 @@
 /*
- * cmd_generate.c: `dtx generate pebbles|garment|eyes IN OUT [options]`.
+ * cmd_generate.c: `dtx generate pebbles|garment|eyes|reshape IN OUT [options]`.
  *
  * Reads one mesh, runs a generator of src/core/generate.h, and writes the
  * result as OBJ, optionally with its vertex map ("generated_vertex,
@@ -25,11 +25,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { KIND_PEBBLES, KIND_GARMENT, KIND_EYES };
+enum { KIND_PEBBLES, KIND_GARMENT, KIND_EYES, KIND_RESHAPE };
 
 /* Every option takes a value; `kinds` says which generators accept it
  * (bit 1 << KIND_*). */
-#define ALL_KINDS 7
+#define ALL_KINDS 15
 static const struct {
     const char *name;
     int kinds;
@@ -38,8 +38,10 @@ static const struct {
     {"--thickness", 1 << KIND_PEBBLES},
     {"--subdivide", 1 << KIND_PEBBLES},
     {"--gap", (1 << KIND_PEBBLES) | (1 << KIND_EYES)},
-    {"--axis", 1 << KIND_GARMENT},
-    {"--lo", 1 << KIND_GARMENT},
+    {"--axis", (1 << KIND_GARMENT) | (1 << KIND_RESHAPE)},
+    {"--lo", (1 << KIND_GARMENT) | (1 << KIND_RESHAPE)},
+    {"--thicken", 1 << KIND_RESHAPE},
+    {"--legs", 1 << KIND_RESHAPE},
     {"--hi", 1 << KIND_GARMENT},
     {"--offset", 1 << KIND_GARMENT},
     {"--anchors", 1 << KIND_EYES},
@@ -150,7 +152,7 @@ static int parse_args(int argc, char **argv, gen_args *g)
     int npos = 0;
     memset(g, 0, sizeof *g);
     if (argc < 3)
-        return usage_error("generate what? pebbles, garment or eyes");
+        return usage_error("generate what? pebbles, garment, eyes or reshape");
     g->kind_name = argv[2];
     if (strcmp(argv[2], "pebbles") == 0)
         g->kind = KIND_PEBBLES;
@@ -158,8 +160,11 @@ static int parse_args(int argc, char **argv, gen_args *g)
         g->kind = KIND_GARMENT;
     else if (strcmp(argv[2], "eyes") == 0)
         g->kind = KIND_EYES;
+    else if (strcmp(argv[2], "reshape") == 0)
+        g->kind = KIND_RESHAPE;
     else
-        return usage_error("unknown generator '%s' (pebbles, garment or eyes)", argv[2]);
+        return usage_error("unknown generator '%s' (pebbles, garment, eyes or reshape)",
+                           argv[2]);
     for (int i = 3; i < argc; i++) {
         const char *a = argv[i];
         if (a[0] == '-' && a[1] == '-') {
@@ -268,6 +273,7 @@ typedef struct {
     double lo, hi, offset;      /* garment */
     int32_t *anchors, nanchors; /* eyes (owned) */
     double radius;              /* eyes */
+    double thicken, legs;       /* reshape (also axis, lo) */
 } gen_params;
 
 /* Parses and checks the generator's options before anything is read.
@@ -290,6 +296,21 @@ static int parse_params(const gen_args *g, gen_params *p)
             return r;
         if (p->gap < 0 || p->thickness < 0)
             return usage_error("--gap and --thickness must be >= 0");
+    } else if (g->kind == KIND_RESHAPE) {
+        const char *ax = val(g, "--axis");
+        if (!ax)
+            return usage_error("reshape needs --axis (the up axis: x, y or z)");
+        if (strlen(ax) != 1 || !strchr("xyz012", ax[0]))
+            return usage_error("--axis must be x, y or z (got '%s')", ax);
+        p->axis = ax[0] >= 'x' ? ax[0] - 'x' : ax[0] - '0';
+        if ((r = num_opt(g, "--thicken", 1.25, &p->thicken)) ||
+            (r = num_opt(g, "--legs", 1.4, &p->legs)) || (r = num_opt(g, "--lo", 0.35, &p->lo)))
+            return r;
+        if (!(p->thicken > 0) || !(p->legs > 0))
+            return usage_error("--thicken and --legs must be > 0 (got %g and %g)", p->thicken,
+                               p->legs);
+        if (!(p->lo >= 0 && p->lo <= 1))
+            return usage_error("--lo must be in [0, 1] (got %g)", p->lo);
     } else if (g->kind == KIND_GARMENT) {
         const char *ax = val(g, "--axis");
         if (!ax || !val(g, "--lo") || !val(g, "--hi"))
@@ -331,6 +352,12 @@ static dtx_status run_generator(const gen_args *g, const gen_params *p, const dt
                  p->thickness, p->subdivide);
         return dtx_gen_pebbles(in, (int32_t)p->pieces, p->gap, p->thickness, (int)p->subdivide, out,
                                map, err);
+    }
+    if (g->kind == KIND_RESHAPE) {
+        snprintf(what, nwhat, "%g times thicker, legs below %g of the height along %c %g times "
+                              "longer",
+                 p->thicken, p->lo, "xyz"[p->axis], p->legs);
+        return dtx_gen_reshape(in, p->axis, p->thicken, p->legs, p->lo, out, map, err);
     }
     if (g->kind == KIND_GARMENT) {
         snprintf(what, nwhat, "shell over %g..%g along %c, offset %g", p->lo, p->hi, "xyz"[p->axis],

@@ -10,6 +10,7 @@
     "  dtx generate pebbles IN OUT.obj --pieces N [--gap G] [--thickness T] [--subdivide L]\n" \
     "  dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"            \
     "  dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"                \
+    "  dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"     \
     "      each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]\n"
 
 /* Runs `dtx generate KIND IN OUT [options]` with argv[1] == "generate".

@@ -715,6 +715,54 @@ done:
 
 /* ------------------------------------------------------------ garment */
 
+/* ---------------------------------------------------------------- reshape */
+
+dtx_status dtx_gen_reshape(const dtx_mesh *in, int axis, double thicken, double legs, double lo,
+                           dtx_mesh *out, int32_t **map, dtx_error *err)
+{
+    double mn[3] = {INFINITY, INFINITY, INFINITY}, mx[3] = {-INFINITY, -INFINITY, -INFINITY};
+    double c[3], u0, w;
+    dtx_status st;
+    clear_outputs(out, map);
+    if (axis < 0 || axis > 2)
+        return dtx_seterr(err, DTX_EINVAL, "reshape: axis must be 0, 1 or 2 (got %d)", axis);
+    if (!isfinite(thicken) || !(thicken > 0) || !isfinite(legs) || !(legs > 0))
+        return dtx_seterr(err, DTX_EINVAL,
+                          "reshape: thicken and legs must be finite and > 0 (got %g and %g)",
+                          thicken, legs);
+    if (!(lo >= 0 && lo <= 1))
+        return dtx_seterr(err, DTX_EINVAL, "reshape: lo must be in [0, 1] (got %g)", lo);
+    if ((st = dtx_mesh_validate(in, "reshape input", err)) != DTX_OK)
+        return st;
+    for (int32_t v = 0; v < in->nv; v++)
+        for (int k = 0; k < 3; k++) {
+            mn[k] = fmin(mn[k], in->V[3 * (size_t)v + k]);
+            mx[k] = fmax(mx[k], in->V[3 * (size_t)v + k]);
+        }
+    for (int k = 0; k < 3; k++)
+        c[k] = 0.5 * (mn[k] + mx[k]);
+    u0 = mn[axis] + lo * (mx[axis] - mn[axis]);
+    w = 0.05 * (mx[axis] - mn[axis]);
+    if ((st = dtx_mesh_copy(in, out, err)) != DTX_OK)
+        return st;
+    *map = dtx_alloc((size_t)in->nv, sizeof **map, 0);
+    if (!*map) {
+        dtx_mesh_free(out);
+        return dtx_seterr(err, DTX_ENOMEM, "reshape: out of memory");
+    }
+    for (int32_t v = 0; v < in->nv; v++) {
+        double *x = out->V + 3 * (size_t)v, d = u0 - x[axis];
+        (*map)[v] = v;
+        for (int k = 0; k < 3; k++)
+            if (k != axis)
+                x[k] = c[k] + thicken * (x[k] - c[k]);
+        /* r(d) = (d + sqrt(d^2 + w^2)) / 2: 0 far above u0, d far below;
+         * dr/du lies in (-1, 0), so u -> u - (legs - 1) r is increasing. */
+        x[axis] -= (legs - 1.0) * 0.5 * (d + sqrt(d * d + w * w));
+    }
+    return DTX_OK;
+}
+
 dtx_status dtx_gen_garment(const dtx_mesh *body, int axis, double lo, double hi, double offset,
                            dtx_mesh *out, int32_t **map, dtx_error *err)
 {

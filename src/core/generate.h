@@ -2,6 +2,7 @@
  * generate.h: multi-component test targets with a known structure, made
  * from one mesh (for the multicomponent method, Zhou et al. 2010).
  *
+ *   reshape  the same mesh with other proportions (thicker, longer legs);
  *   pebbles  the surface cut into N connected patches that share no vertex,
  *            each shrunk a little so that cracks open between them (optionally
  *            each closed into a stone of some thickness);
@@ -106,6 +107,21 @@ dtx_status dtx_gen_pebbles(const dtx_mesh *in, int32_t npieces, double gap, doub
  * body vertex each shell vertex copies.  DTX_EINVAL when no face lies in
  * the band. */
 dtx_status dtx_gen_garment(const dtx_mesh *body, int axis, double lo, double hi, double offset,
+                           dtx_mesh *out, int32_t **map, dtx_error *err);
+
+/* Reshape: the same vertices and faces at new positions, a smooth
+ * non-rigid change of proportions (a target for methods that need the
+ * source's connectivity, such as springs).  With u the coordinate along
+ * axis (0 = x, 1 = y, 2 = z: the "up" axis), [u_min, u_max] its range and
+ * c the bounding-box centre:
+ *   - thicker: the two other coordinates are scaled about c by thicken;
+ *   - longer legs: below u_0 = u_min + lo (u_max - u_min) the mesh is
+ *     stretched along the axis by the factor legs, u -> u - (legs - 1) r(u)
+ *     with r a smooth version of max(0, u_0 - u) (a hyperbola of width
+ *     0.05 (u_max - u_min)), so the map is smooth and one-to-one.
+ * thicken > 0, legs > 0, 0 <= lo <= 1, all finite (DTX_EINVAL otherwise).
+ * map: the identity. */
+dtx_status dtx_gen_reshape(const dtx_mesh *in, int axis, double thicken, double legs, double lo,
                            dtx_mesh *out, int32_t **map, dtx_error *err);
 
 /* Eyes.  out = the body (first, unchanged) followed by one closed sphere

@@ -6,6 +6,9 @@
  *   2. read the inputs (every rank: source mesh, sequence shapes, targets, markers);
  *   3. decide what the output file is: a fresh OUTPUT.partial, the partial of an
  *      interrupted run to continue (--resume), or nothing to do;
+ *      (method springs: a target with the source's vertices and faces needs
+ *      no markers and no correspondence; any other goes through a proxy,
+ *      the source deformed by sp04's correspondence);
  *   3b. method biharmonic: every rank reads the training frames; with
  *      keypoints "auto" the ranks select the key points together, each
  *      evaluating its share of the candidates;
@@ -45,6 +48,7 @@
 #include "keypoints.h"
 #include "meshfile.h"
 #include "progress.h"
+#include "springs.h"
 #include "transfer_bh.h"
 
 #include <errno.h>
@@ -75,6 +79,18 @@ typedef struct {
     double sum, sumsq, min, max;
 } run_stats;
 
+/* Method springs: the Newton solves of a result's frames done by this run
+ * (reduced onto rank 0 at the end). */
+typedef struct {
+    int64_t frames, iterations;  /* frames solved, fine-level Newton steps summed */
+    int64_t unconverged;         /* frames that stopped without meeting the test */
+    int64_t first_unconverged;   /* the lowest of them, or INT64_MAX */
+    int64_t inverted_frames;     /* frames with inverted triangles */
+    int64_t max_inverted;        /* most inverted triangles in a frame */
+    int64_t max_inverted_frame;  /* that frame (the lowest on ties), or INT64_MAX */
+    int64_t max_iterations;
+} springs_stats;
+
 typedef enum { OUT_FRESH, OUT_RESUME, OUT_DONE } out_mode;
 
 typedef struct {
@@ -84,6 +100,8 @@ typedef struct {
     dtx_corr corr;
     char key[17];
     int reused;      /* correspondence found in a cache */
+    int same_conn;   /* method springs: the source's vertices and faces (no
+                        correspondence, no markers needed) */
     int owner;       /* rank that computes it */
     char mesh_path[DTX_H5_PATH_MAX], corr_path[DTX_H5_PATH_MAX];
     /* method biharmonic: the key points (source -> target vertex) as a
@@ -104,6 +122,7 @@ typedef struct {
     int open;
     int finished;   /* already complete in the resumed partial */
     run_stats st;
+    springs_stats sp;
 } result_ctx;
 
 typedef struct {
@@ -269,6 +288,58 @@ static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
     MPI_Reduce(&mine->max, &all->max, 1, MPI_DOUBLE, MPI_MAX, 0, comm);
 }
 
+static void springs_init(springs_stats *s)
+{
+    memset(s, 0, sizeof *s);
+    s->first_unconverged = s->max_inverted_frame = INT64_MAX;
+}
+
+/* Frame f's solve: into s, and as its frame_stats row. */
+static void springs_add(springs_stats *s, int64_t f, const dtx_springs_frame_info *in,
+                        int32_t row[DTX_H5_FRAME_STATS])
+{
+    row[0] = in->iterations;
+    row[1] = in->converged ? 1 : 0;
+    row[2] = in->inverted;
+    s->frames++;
+    s->iterations += in->iterations;
+    s->max_iterations = in->iterations > s->max_iterations ? in->iterations : s->max_iterations;
+    if (!in->converged) {
+        s->unconverged++;
+        s->first_unconverged = f < s->first_unconverged ? f : s->first_unconverged;
+    }
+    if (in->inverted > 0)
+        s->inverted_frames++;
+    if (in->inverted > s->max_inverted ||
+        (in->inverted == s->max_inverted && in->inverted > 0 && f < s->max_inverted_frame)) {
+        s->max_inverted = in->inverted;
+        s->max_inverted_frame = f;
+    }
+}
+
+/* The solves of all ranks, on rank 0. */
+static void springs_reduce(MPI_Comm comm, const springs_stats *mine, springs_stats *all)
+{
+    int64_t sums[4] = {mine->frames, mine->iterations, mine->unconverged, mine->inverted_frames};
+    int64_t maxs[2] = {mine->max_iterations, mine->max_inverted}, sum_all[4], max_all[2];
+    int64_t frame = INT64_MAX;
+    springs_init(all);
+    MPI_Reduce(sums, sum_all, 4, MPI_INT64_T, MPI_SUM, 0, comm);
+    MPI_Reduce(&mine->first_unconverged, &all->first_unconverged, 1, MPI_INT64_T, MPI_MIN, 0,
+               comm);
+    MPI_Allreduce(maxs, max_all, 2, MPI_INT64_T, MPI_MAX, comm);
+    /* The lowest frame with the most inversions, over the ranks. */
+    if (mine->max_inverted == max_all[1] && max_all[1] > 0)
+        frame = mine->max_inverted_frame;
+    MPI_Reduce(&frame, &all->max_inverted_frame, 1, MPI_INT64_T, MPI_MIN, 0, comm);
+    all->frames = sum_all[0];
+    all->iterations = sum_all[1];
+    all->unconverged = sum_all[2];
+    all->inverted_frames = sum_all[3];
+    all->max_iterations = max_all[0];
+    all->max_inverted = max_all[1];
+}
+
 /* ------------------------------------------------------------------ */
 /* Inputs                                                              */
 /* ------------------------------------------------------------------ */
@@ -377,12 +448,6 @@ static dtx_status load_job(MPI_Comm comm, const char *path, dtx_job *job, dtx_er
     memset(job, 0, sizeof *job);
     if (rank == 0) {
         st = dtx_job_load(path, job, err);
-        if (st == DTX_OK && job->method != DTX_METHOD_SP04 &&
-            job->method != DTX_METHOD_MULTICOMPONENT && job->method != DTX_METHOD_BIHARMONIC)
-            st = dtx_seterr(err, DTX_EJOB,
-                            "%s: /method: this build of dtx runs methods sp04, multicomponent "
-                            "and biharmonic only",
-                            path);
         if (st == DTX_OK)
             len = (long long)strlen(job->text);
     }
@@ -549,14 +614,22 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
         r->job.method != DTX_METHOD_BIHARMONIC)
         return dtx_seterr(err, DTX_EMESH,
                           "%s:%s: the target mesh has %d connected components (vertex %d is not "
-                          "connected to vertex %d) and method sp04 needs one (separate pieces "
+                          "connected to vertex %d) and method %s needs one (separate pieces "
                           "need method \"multicomponent\", or one target per piece)%s",
                           file, path, (int)rep.components, (int)rep.other_component,
-                          (int)m->F[0], seams);
+                          (int)m->F[0], r->job.method == DTX_METHOD_SPRINGS ? "springs" : "sp04",
+                          seams);
     if (dtx_mesh_report_notes(&rep, notes, sizeof notes) > 0)
         say(r, "dtx: warning: %s mesh %s:%s: %s; accepted", is_target ? "target" : "source",
             file, path, notes);
     return DTX_OK;
+}
+
+/* 1 when tgt has src's vertex count and the same faces in the same order. */
+static int same_connectivity(const dtx_mesh *src, const dtx_mesh *tgt)
+{
+    return src->nv == tgt->nv && src->nf == tgt->nf &&
+           memcmp(src->F, tgt->F, (size_t)src->nf * 3 * sizeof *src->F) == 0;
 }
 
 static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
@@ -579,6 +652,28 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
         st = read_mesh_from(tc->tj->file, tc->tj->mesh, &tc->mesh, err);
         if (st == DTX_OK)
             st = check_mesh(r, tc->tj->file, tc->tj->mesh, &tc->mesh, 1, err);
+        if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS) {
+            tc->same_conn = same_connectivity(&r->src, &tc->mesh);
+            if (tc->same_conn) {
+                /* The paper's setting: vertex i of the target is vertex i
+                 * of the source; markers would add nothing. */
+                if (tc->tj->markers.csv || tc->tj->markers.file)
+                    say(r, "dtx: target %s has the source's vertices and faces: its markers "
+                           "are not needed and not used",
+                        tc->tj->name);
+                corr_key(&r->src, &tc->mesh, &tc->mk, params, tc->key);
+                continue;
+            }
+            if (!tc->tj->markers.csv && !tc->tj->markers.file)
+                st = dtx_seterr(err, DTX_EJOB,
+                                "%s: target \"%s\" (%s:%s): has %d vertices and %d faces, not "
+                                "the source's %d and %d with the same faces, so method springs "
+                                "needs its markers (for the sp04 correspondence that deforms "
+                                "the source into a proxy of the target)",
+                                r->job.job_path ? r->job.job_path : "job", tc->tj->name,
+                                tc->tj->file, tc->tj->mesh, (int)tc->mesh.nv, (int)tc->mesh.nf,
+                                (int)r->src.nv, (int)r->src.nf);
+        }
         if (st == DTX_OK)
             st = read_markers(tc->tj, &tc->mk, err);
         if (st == DTX_OK)
@@ -623,12 +718,12 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
     dtx_status st = DTX_OK;
     double t0 = wtime();
     char *params;
-    /* The biharmonic method's key points are mapped through sp04's
-     * correspondence: its cache key is sp04's, so changing the biharmonic
-     * parameters does not recompute it. */
+    /* The biharmonic method's key points and the springs method's proxies
+     * come from sp04's correspondence: its cache key is sp04's, so changing
+     * their own parameters does not recompute it. */
     {
         dtx_job as_sp04 = r->job;
-        if (as_sp04.method == DTX_METHOD_BIHARMONIC)
+        if (as_sp04.method == DTX_METHOD_BIHARMONIC || as_sp04.method == DTX_METHOD_SPRINGS)
             as_sp04.method = DTX_METHOD_SP04;
         params = dtx_job_params_json(&as_sp04);
     }
@@ -929,10 +1024,15 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
         free(reused);
         return err->code;
     }
+    /* reused[t]: 0 to compute, 1 found in a cache, 2 not needed (springs
+     * onto a target of the source's connectivity). */
+    for (int t = 0; t < r->nt; t++)
+        reused[t] = r->tg[t].same_conn ? 2 : 0;
     /* The partial of an interrupted run holds correspondences too, even
      * when it is discarded. */
     if (r->rank == 0 && (r->job.method == DTX_METHOD_SP04 ||
-                         r->job.method == DTX_METHOD_BIHARMONIC)) {
+                         r->job.method == DTX_METHOD_BIHARMONIC ||
+                         r->job.method == DTX_METHOD_SPRINGS)) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
@@ -942,7 +1042,7 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     st = injected_fault(r, "correspondence", err);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
-        tc->reused = reused[t];
+        tc->reused = reused[t] == 1;
         ncomputed += !reused[t];
         if (reused[t] || tc->owner != r->rank)
             continue;
@@ -959,13 +1059,21 @@ static dtx_status correspondences(run_state *r, dtx_error *err)
     if (agree(r->comm, st, err) != DTX_OK)
         return err->code;
     for (int t = 0; t < r->nt; t++)
-        if ((st = bcast_corr(r->comm, r->tg[t].owner, &r->tg[t].corr, r->src.nv, err)) != DTX_OK)
+        if (!r->tg[t].same_conn &&
+            (st = bcast_corr(r->comm, r->tg[t].owner, &r->tg[t].corr, r->src.nv, err)) != DTX_OK)
             return st;
     r->tm.correspond += wtime() - t0;
     for (int t = 0; t < r->nt; t++)
-        say(r, "dtx: target %s: correspondence %s: %lld triangle pairs", r->tg[t].tj->name,
-            r->tg[t].reused ? "reused from the output's cache" : "computed",
-            (long long)r->tg[t].corr.npairs);
+        if (r->tg[t].same_conn)
+            say(r, "dtx: target %s: the source's vertices and faces: no correspondence needed",
+                r->tg[t].tj->name);
+        else
+            say(r, "dtx: target %s: correspondence %s: %lld triangle pairs%s", r->tg[t].tj->name,
+                r->tg[t].reused ? "reused from the output's cache" : "computed",
+                (long long)r->tg[t].corr.npairs,
+                r->job.method == DTX_METHOD_SPRINGS ? " (the springs solve on the source "
+                                                      "deformed by it, a proxy of the target)"
+                                                    : "");
     if (ncomputed > 1 && r->nranks > 1)
         say(r, "dtx: %d correspondences computed on %d ranks in %.2f s", ncomputed,
             ncomputed < r->nranks ? ncomputed : r->nranks, r->tm.correspond);
@@ -1034,8 +1142,10 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             /* Not starting with '/': the validator follows in-file paths. */
             snprintf(mkdesc, sizeof mkdesc, "CSV file %s (index base %d)", tj->markers.csv,
                      tj->markers.index_base);
-        else
+        else if (tj->markers.file)
             snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
+        else
+            snprintf(mkdesc, sizeof mkdesc, "none");
         meta.key = tc->key;
         meta.source_mesh = srcdesc;
         meta.target_mesh = tgtdesc;
@@ -1055,6 +1165,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             snprintf(seqdesc, sizeof seqdesc, "%s:%s", r->job.source_file, r->sq[s].path);
             prov.method = r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent"
                           : r->job.method == DTX_METHOD_BIHARMONIC   ? "biharmonic"
+                          : r->job.method == DTX_METHOD_SPRINGS      ? "springs"
                                                                      : "sp04";
             prov.job = r->job.text;
             prov.parameters = params;
@@ -1065,6 +1176,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
                                       tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
                                       DTX_FRAME_ALIGN, 0, &rc->res, err);
             rc->open = st == DTX_OK;
+            if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS)
+                st = dtx_h5_result_add_frame_stats(&rc->res, err);
         }
     }
     /* The key that lets --resume continue this file goes in last, once
@@ -1189,6 +1302,8 @@ static void rank_range(int64_t ntodo, int nranks, int q, int rot, int64_t *a, in
 typedef struct {
     int32_t block;         /* frames per block, a multiple of DTX_FRAME_ALIGN */
     double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
+    dtx_springs_frame_info *sinfo; /* method springs: block entries */
+    int32_t *fstats;       /* method springs: block x DTX_H5_FRAME_STATS */
 } frame_buffers;
 
 static void progress_step(run_state *r, int64_t n)
@@ -1244,6 +1359,7 @@ typedef struct {
     dtx_sp04_plan *sp04;
     dtx_mc_plan *mc;
     dtx_bh_plan *bh;
+    dtx_springs_plan *springs;
     int recentre;      /* bh with translation "fixed": move each frame's centroid */
     double centre[3];  /* to the target's rest centroid */
 } plan_ref;
@@ -1266,8 +1382,14 @@ static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
 }
 
 static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
-                             double *res, dtx_error *err)
+                             double *res, dtx_springs_frame_info *sinfo, dtx_error *err)
 {
+    if (p->springs) {
+        dtx_status st = dtx_springs_apply(p->springs, n, Xs, Xt, sinfo, err);
+        for (int64_t i = 0; st == DTX_OK && i < n; i++)
+            res[i] = sinfo[i].residual;
+        return st;
+    }
     if (p->mc)
         return dtx_mc_apply(p->mc, n, Xs, Xt, res, NULL, err);
     if (p->bh) {
@@ -1291,6 +1413,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
     dtx_status st;
 
     stats_init(&rc->st);
+    springs_init(&rc->sp);
     st = groups_todo(rc, &todo, &ntodo, &skipped, err);
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
@@ -1326,7 +1449,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
         st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
         t1 = wtime();
         if (st == DTX_OK && n > 0)
-            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, err);
+            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, fb->sinfo, err);
         if (st == DTX_OK && k == nseg_max / 2)
             st = injected_fault(r, "transfer", err);
         t2 = wtime();
@@ -1344,10 +1467,17 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
                 break;
             }
             stats_add(&rc->st, fb->res[i]);
+            if (plan->springs)
+                springs_add(&rc->sp, f0 + i, &fb->sinfo[i], fb->fstats + DTX_H5_FRAME_STATS * i);
         }
         if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
-        st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res,
+        /* The solver figures first: dtx_h5_result_write marks frames done. */
+        if (plan->springs)
+            st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats,
+                                                 r->job.collective_io, err);
+        if (st == DTX_OK)
+            st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res,
                                  r->job.collective_io, err);
         if (st == DTX_OK && r->job.export_obj_dir)
             st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
@@ -1383,6 +1513,70 @@ static dtx_status count_todo(run_state *r, dtx_error *err)
             free(todo);
         }
     return agree(r->comm, st, err);
+}
+
+/* Method springs: the plan of one target (on the target itself, or on the
+ * proxy for another connectivity). */
+static dtx_status springs_plan(run_state *r, const target_ctx *tc, dtx_anchor anchor,
+                               const int32_t *pins, const double *pin_pos, plan_ref *plan,
+                               dtx_error *err)
+{
+    const dtx_springs_job_params *q = &r->job.springs;
+    dtx_springs_params sp;
+    dtx_springs_info info;
+    dtx_status st;
+    dtx_springs_params_default(&sp);
+    sp.bending = q->bending;
+    sp.internal = q->internal;
+    sp.levels = q->levels;
+    sp.coarse_min = q->coarse_min;
+    sp.start = q->start_rest ? DTX_SPRINGS_START_REST : DTX_SPRINGS_START_LINEAR;
+    sp.max_iter = q->max_iter;
+    sp.tol = q->tol;
+    sp.coarse_max_iter = q->coarse_max_iter;
+    sp.coarse_tol = q->coarse_tol;
+    if (!tc->same_conn && tc->tj->npins > 0)
+        return dtx_seterr(err, DTX_EJOB,
+                          "%s: target \"%s\": method springs holds pins only on a target with the "
+                          "source's vertices and faces (this one goes through a proxy)",
+                          r->job.job_path ? r->job.job_path : "job", tc->tj->name);
+    st = dtx_springs_plan_create(&r->src, &tc->mesh, tc->same_conn ? NULL : tc->corr.deformed_src,
+                                 &sp, anchor, pins, pin_pos, tc->tj->npins, &plan->springs, err);
+    if (st != DTX_OK)
+        return st;
+    dtx_springs_plan_info(plan->springs, &info);
+    say(r, "dtx: target %s: %d edge, %d bending and %d internal springs%s; %d levels (%d "
+           "vertices on the coarsest); factor %lld entries; %.2f s",
+        tc->tj->name, (int)info.springs[DTX_SPRING_EDGE], (int)info.springs[DTX_SPRING_BENDING],
+        (int)info.springs[DTX_SPRING_INTERNAL], info.proxy ? " on the proxy" : "", info.levels,
+        (int)info.level_vertices[info.levels - 1], (long long)info.factor_nnz,
+        info.setup_seconds);
+    if (info.proxy)
+        say(r, "dtx: target %s: its vertices lie %.3g%% of its diagonal (RMS) from the proxy",
+            tc->tj->name, 100 * info.proxy_rms);
+    return DTX_OK;
+}
+
+/* Rank 0, method springs: how the Newton solves of result (t, s) went. */
+static void say_springs(run_state *r, int t, int s)
+{
+    const springs_stats *sp = &RESULT(r, t, s)->sp;
+    char more[400] = "";
+    if (sp->frames == 0)
+        return;
+    if (sp->unconverged > 0)
+        snprintf(more, sizeof more, "; %lld frames stopped before converging (the first: frame "
+                                    "%lld)",
+                 (long long)sp->unconverged, (long long)sp->first_unconverged);
+    if (sp->inverted_frames > 0)
+        snprintf(more + strlen(more), sizeof more - strlen(more),
+                 "; %lld frames have inverted triangles (most: %lld in frame %lld)",
+                 (long long)sp->inverted_frames, (long long)sp->max_inverted,
+                 (long long)sp->max_inverted_frame);
+    say(r, "dtx: result %s/%s: Newton %.1f iterations per frame (at most %lld)%s%s",
+        r->tg[t].tj->name, r->sq[s].name, (double)sp->iterations / (double)sp->frames,
+        (long long)sp->max_iterations, more,
+        sp->unconverged || sp->inverted_frames ? " (per frame: frame_stats in the output)" : "");
 }
 
 /* The biharmonic transfer of one target: both meshes' bounded biharmonic
@@ -1432,8 +1626,14 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
     fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
-    st = fb.Xs && fb.Xt && fb.res ? DTX_OK
-                                   : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
+    if (r->job.method == DTX_METHOD_SPRINGS) {
+        fb.sinfo = dtx_alloc((size_t)fb.block, sizeof *fb.sinfo, 1);
+        fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
+    }
+    st = fb.Xs && fb.Xt && fb.res &&
+                 (r->job.method != DTX_METHOD_SPRINGS || (fb.sinfo && fb.fstats))
+             ? DTX_OK
+             : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
 
@@ -1478,6 +1678,8 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
                                     anchor, pin_idx, pin_pos, tj->npins, &plan.mc, err);
         } else if (r->job.method == DTX_METHOD_BIHARMONIC) {
             st = bh_plan(r, tc, &plan, err);
+        } else if (r->job.method == DTX_METHOD_SPRINGS) {
+            st = springs_plan(r, tc, anchor, pin_idx, pin_pos, &plan, err);
         } else {
             st = dtx_sp04_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, anchor,
                                       pin_idx, pin_pos, tj->npins, &plan.sp04, err);
@@ -1495,6 +1697,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
         dtx_sp04_plan_free(&plan.sp04);
         dtx_mc_plan_free(&plan.mc);
         dtx_bh_plan_free(&plan.bh);
+        dtx_springs_plan_free(&plan.springs);
         if (st != DTX_OK)
             goto done;
     }
@@ -1502,6 +1705,8 @@ done:
     free(fb.Xs);
     free(fb.Xt);
     free(fb.res);
+    free(fb.sinfo);
+    free(fb.fstats);
     return st;
 }
 
@@ -1628,8 +1833,9 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
         fprintf(f, "%s", t ? ", " : "");
         json_str(f, r->tg[t].tj->name);
         fprintf(f, ": \"%s\"",
-                r->mode == OUT_DONE || (r->job.method == DTX_METHOD_BIHARMONIC &&
-                                        r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
+                r->mode == OUT_DONE || r->tg[t].same_conn ||
+                        (r->job.method == DTX_METHOD_BIHARMONIC &&
+                         r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
                     ? "not needed"
                     : (r->tg[t].reused ? "reused" : "computed"));
     }
@@ -1643,6 +1849,15 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
             json_str(f, r->sq[s].path);
             fprintf(f, ", \"frames\": %lld, \"residual\": ", (long long)rc->st.frames);
             json_stats(f, &rc->st);
+            if (r->job.method == DTX_METHOD_SPRINGS && rc->sp.frames > 0)
+                fprintf(f,
+                        ", \"springs\": {\"newton_iterations_mean\": %.4g, "
+                        "\"newton_iterations_max\": %lld, \"unconverged_frames\": %lld, "
+                        "\"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": "
+                        "%lld}",
+                        (double)rc->sp.iterations / (double)rc->sp.frames,
+                        (long long)rc->sp.max_iterations, (long long)rc->sp.unconverged,
+                        (long long)rc->sp.inverted_frames, (long long)rc->sp.max_inverted);
             fputc('}', f);
         }
     fprintf(f, "\n  ]\n}\n");
@@ -1809,6 +2024,13 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             stats_reduce(comm, &RESULT(&r, t, s)->st, &all);
             if (r.rank == 0)
                 RESULT(&r, t, s)->st = all;
+            if (r.job.method == DTX_METHOD_SPRINGS) {
+                springs_stats sp;
+                springs_reduce(comm, &RESULT(&r, t, s)->sp, &sp);
+                if (r.rank == 0)
+                    RESULT(&r, t, s)->sp = sp;
+                say_springs(&r, t, s);
+            }
         }
     summarise(&r);
     release(&r);

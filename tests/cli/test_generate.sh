@@ -163,5 +163,25 @@ check "1-based markers failed" "$dtx" generate garment "$lion" "$scratch/g.obj" 
     2> /dev/null
 check "1-based markers: not kept 1-based" test "$(tail -n 1 "$scratch/g-mk.csv")" = '7,1,"a, quoted"'
 
+# reshape: the same faces, every vertex kept (the map is the identity), the
+# lion (axis z: its length here) 1.25 times wider in x and longer along z.
+check "reshape failed" "$dtx" generate reshape "$lion" "$scratch/r.obj" --axis z --thicken 1.25 \
+    --legs 1.5 --lo 0.3 --map "$scratch/r-map.csv" 2> "$scratch/r.err"
+check "reshape: faces changed" cmp -s <(grep '^f ' "$lion") <(grep '^f ' "$scratch/r.obj")
+check "reshape: vertex count changed" \
+    test "$(count '^v ' "$lion")" -eq "$(count '^v ' "$scratch/r.obj")"
+check "reshape: map not the identity" \
+    awk -F, 'NR > 1 { if ($1 != $2) exit 1; n++ } END { exit n == 5000 ? 0 : 1 }' "$scratch/r-map.csv"
+extent() { awk -v k="$2" '$1 == "v" { x = $(k + 2) + 0; if (!n++ || x < lo) lo = x; if (n == 1 || x > hi) hi = x }
+                          END { print hi - lo }' "$1"; }
+check "reshape: not 1.25 times wider in x" \
+    awk -v a="$(extent "$lion" 0)" -v b="$(extent "$scratch/r.obj" 0)" 'BEGIN { exit (b / a > 1.2499 && b / a < 1.2501) ? 0 : 1 }'
+check "reshape: not taller along z" \
+    awk -v a="$(extent "$lion" 2)" -v b="$(extent "$scratch/r.obj" 2)" 'BEGIN { exit (b / a > 1.1) ? 0 : 1 }'
+bad 2 "reshape needs --axis" reshape "$lion" "$bad_out"
+bad 2 "--thicken and --legs must be > 0" reshape "$lion" "$bad_out" --axis y --legs 0
+bad 2 "--lo must be in [0, 1]" reshape "$lion" "$bad_out" --axis y --lo 1.5
+bad 2 "reshape does not take the option --pieces" reshape "$lion" "$bad_out" --axis y --pieces 3
+
 echo "generate: $checks passed, $fails failed"
 [[ $fails -eq 0 ]]

@@ -399,6 +399,55 @@ static void test_pebbles(void)
     dtx_mesh_free(&cap);
 }
 
+/* reshape: identity at thicken = legs = 1; else the same faces, the other
+ * axes scaled exactly, the axis order of vertices kept (one-to-one), the top
+ * unmoved up to the hyperbola's tail, the bottom pushed down by (legs - 1)
+ * times its depth below u_0. */
+static void test_reshape(void)
+{
+    dtx_mesh cap, out;
+    int32_t *map = NULL;
+    dtx_error err;
+    double zmin = INFINITY, zmax = -INFINITY, xmax0 = 0, xmax1 = 0, newmin = INFINITY;
+    int same = 1, order = 1, ids = 1;
+    CHECK_OK(gen_capsule(24, 16, 2.0, &cap), &err);
+    CHECK_OK(dtx_gen_reshape(&cap, 2, 1.0, 1.0, 0.3, &out, &map, &err), &err);
+    for (int32_t i = 0; map && i < 3 * cap.nv; i++)
+        same &= out.V[i] == cap.V[i];
+    CHECK(same);
+    dtx_mesh_free(&out);
+    free(map);
+    CHECK_OK(dtx_gen_reshape(&cap, 2, 1.5, 2.0, 0.3, &out, &map, &err), &err);
+    if (!map)
+        return;
+    CHECK_INT(out.nv, ==, cap.nv);
+    CHECK_INT(out.nf, ==, cap.nf);
+    CHECK(memcmp(out.F, cap.F, 3 * sizeof *cap.F * (size_t)cap.nf) == 0);
+    for (int32_t v = 0; v < cap.nv; v++) {
+        zmin = fmin(zmin, cap.V[3 * v + 2]);
+        zmax = fmax(zmax, cap.V[3 * v + 2]);
+        xmax0 = fmax(xmax0, fabs(cap.V[3 * v]));
+        xmax1 = fmax(xmax1, fabs(out.V[3 * v]));
+        newmin = fmin(newmin, out.V[3 * v + 2]);
+        ids &= map[v] == v;
+        for (int32_t w = 0; w < cap.nv; w += 7)
+            if (cap.V[3 * w + 2] < cap.V[3 * v + 2] && !(out.V[3 * w + 2] < out.V[3 * v + 2]))
+                order = 0;
+    }
+    CHECK(ids);
+    CHECK(order);
+    CHECK_NEAR(xmax1, 1.5 * xmax0, 1e-12);
+    /* The lowest point was 0.3 (zmax - zmin) below u_0: now about twice. */
+    CHECK_NEAR(newmin, zmin - 0.3 * (zmax - zmin), 0.01 * (zmax - zmin));
+    dtx_mesh_free(&out);
+    free(map);
+    CHECK_INT(dtx_gen_reshape(&cap, 3, 1.5, 2.0, 0.3, &out, &map, &err), ==, DTX_EINVAL);
+    CHECK_INT(dtx_gen_reshape(&cap, 2, 0.0, 2.0, 0.3, &out, &map, &err), ==, DTX_EINVAL);
+    CHECK_INT(dtx_gen_reshape(&cap, 2, 1.0, 2.0, -0.1, &out, &map, &err), ==, DTX_EINVAL);
+    CHECK(map == NULL && out.nv == 0);
+    dtx_mesh_free(&cap);
+}
+
 static void test_garment(void)
 {
     dtx_mesh cap, out;
@@ -632,6 +681,7 @@ int main(void)
 {
     test_subdivide_icosphere();
     test_pebbles();
+    test_reshape();
     test_garment();
     test_eyes();
     test_remap();
