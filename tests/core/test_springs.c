@@ -632,7 +632,7 @@ static void test_cat_lion(const char *dir)
     char rel[256], path[2048];
     double *Xs, *Xt, *Yt, dcat, dlion, worst = 0.0, sum_s = 0.0, sum_p = 0.0, worst_s = 0.0;
     int inv = 0, exact = 0;
-    static const int lion_poses[3] = {1, 4, 7};
+    static const int lion_poses[2] = {1, 7}, self_poses[3] = {1, 4, 9};
 
     if (!load(dir, "source/cat-reference.obj", &cat))
         return;
@@ -656,16 +656,20 @@ static void test_cat_lion(const char *dir)
     dlion = dtx_bbox_diagonal(lion.V, lion.nv);
     dtx_springs_params_default(&prm);
 
-    /* Cat onto itself: every pose reproduced. */
+    /* Cat onto itself: poses 1, 4 and 9 (the driver test runs others; all
+     * nine: 7 to 1e-13, poses 4 and 7 with a fold of 0.18% and 0.16%). */
+    for (int k = 0; k < 3; k++)
+        memcpy(Xs + (size_t)k * 3 * cat.nv, Xs + (size_t)(self_poses[k] - 1) * 3 * cat.nv,
+               sizeof(double) * 3 * cat.nv);
     CHECK_OK(dtx_springs_plan_create(&cat, &cat, NULL, &prm, DTX_ANCHOR_FIXED, NULL, NULL, 0, &plan,
                                      &err),
              &err);
     if (!plan)
         return;
-    CHECK_OK(dtx_springs_apply(plan, 9, Xs, Xt, fi, &err), &err);
+    CHECK_OK(dtx_springs_apply(plan, 3, Xs, Xt, fi, &err), &err);
     printf("cat -> cat, per pose: worst vertex distance to the pose (%% of the diagonal), "
            "Newton iterations, inverted triangles:\n ");
-    for (int k = 0; k < 9; k++) {
+    for (int k = 0; k < 3; k++) {
         double d =
             max_dist_centered(Xt + (size_t)k * 3 * cat.nv, Xs + (size_t)k * 3 * cat.nv, cat.nv) /
             dcat;
@@ -673,14 +677,14 @@ static void test_cat_lion(const char *dir)
         exact += d < 1e-8;
         inv += fi[k].inverted;
         CHECK(fi[k].converged);
-        printf(" %d: %.1e%% %d %d;", k + 1, 100.0 * d, (int)fi[k].iterations, (int)fi[k].inverted);
+        printf(" %d: %.1e%% %d %d;", self_poses[k], 100.0 * d, (int)fi[k].iterations, (int)fi[k].inverted);
     }
-    printf("\n  %d of 9 poses reproduced to 1e-8 of the diagonal; the others end in a local "
+    printf("\n  %d of 3 poses reproduced to 1e-8 of the diagonal; the others end in a local "
            "minimum with a small fold (worst %.2f%%, %d inverted triangles in all)\n",
            exact, 100.0 * worst, inv);
     /* The energy has local minima (the paper's stated limitation): most
      * poses are found exactly, the others with small folds. */
-    CHECK_INT(exact, >=, 6);
+    CHECK_INT(exact, >=, 2);
     CHECK_DBL(worst, <, 0.02);
     dtx_springs_plan_free(&plan);
 
@@ -690,25 +694,29 @@ static void test_cat_lion(const char *dir)
     CHECK_OK(dtx_sp04_plan_create(&cat, &lion, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
                                   NULL, 0, &sp, &err),
              &err);
-    /* Three poses, at most 30 Newton iterations each (the full figures, 9
+    /* Two poses, at most 20 Newton iterations each (the full figures, 9
      * poses to convergence, are tests/bench/bench_springs.c's). */
-    for (int k = 0; k < 3; k++)
-        memcpy(Xs + (size_t)k * 3 * cat.nv, Xs + (size_t)(lion_poses[k] - 1) * 3 * cat.nv,
-               sizeof(double) * 3 * cat.nv);
-    CHECK_OK(dtx_sp04_apply(sp, 3, Xs, Yt, NULL, &err), &err);
-    prm.max_iter = 30;
+    for (int k = 0; k < 2; k++) {
+        snprintf(rel, sizeof rel, "source/cat-%02d.obj", lion_poses[k]);
+        if (!load(dir, rel, &pose))
+            return;
+        memcpy(Xs + (size_t)k * 3 * cat.nv, pose.V, sizeof(double) * 3 * cat.nv);
+        dtx_mesh_free(&pose);
+    }
+    CHECK_OK(dtx_sp04_apply(sp, 2, Xs, Yt, NULL, &err), &err);
+    prm.max_iter = 20;
     CHECK_OK(dtx_springs_plan_create(&cat, &lion, corr.deformed_src, &prm, DTX_ANCHOR_FIXED, NULL,
                                      NULL, 0, &plan, &err),
              &err);
     if (!plan)
         return;
     dtx_springs_plan_info(plan, &info);
-    CHECK_OK(dtx_springs_apply(plan, 3, Xs, Xt, fi, &err), &err);
+    CHECK_OK(dtx_springs_apply(plan, 2, Xs, Xt, fi, &err), &err);
     printf("cat -> lion through the proxy (lion from the proxy surface: RMS %.3f%%); RMS "
            "distance to the paper's results, %% of the lion's diagonal:\n"
            "  pose  springs     sp04  iterations  residual  inverted\n",
            100.0 * info.proxy_rms);
-    for (int k = 0; k < 3; k++) {
+    for (int k = 0; k < 2; k++) {
         double rs, rp;
         snprintf(rel, sizeof rel, "paper-results/lion-%02d.obj", lion_poses[k]);
         if (!load(dir, rel, &pose))
@@ -722,12 +730,12 @@ static void test_cat_lion(const char *dir)
         worst_s = fmax(worst_s, rs);
         dtx_mesh_free(&pose);
     }
-    printf("  mean  %6.3f%%  %6.3f%%  (springs worst %.3f%%)\n", sum_s / 3, sum_p / 3, worst_s);
+    printf("  mean  %6.3f%%  %6.3f%%  (springs worst %.3f%%)\n", sum_s / 2, sum_p / 2, worst_s);
     /* Springs transfer lengths, not gradients, and the proxy is the source
      * pulled onto the lion (with folds where the correspondence folded it),
      * so the result does not follow the paper's sp04 results closely; this
      * bounds gross failures only. */
-    CHECK_DBL(sum_s / 3, <, 5.0);
+    CHECK_DBL(sum_s / 2, <, 5.0);
 
     dtx_springs_plan_free(&plan);
     dtx_sp04_plan_free(&sp);

@@ -30,8 +30,10 @@ check() { # check DESCRIPTION COMMAND...
 }
 MPIRUN=(mpirun --oversubscribe --bind-to none)
 PY=/usr/bin/python3
-asan=0
-if [[ $(ldd "$DTX") == *libasan* ]]; then asan=1; fi
+asan=0 maxit=25
+# The sanitizer pass checks memory, not numbers: fewer iterations, no
+# numeric checks, no thread run.
+if [[ $(ldd "$DTX") == *libasan* ]]; then asan=1 maxit=6; fi
 
 "$DTX" generate reshape "$D/source/cat-reference.obj" fatcat.obj --axis y --thicken 1.25 \
     --legs 1.4 2> /dev/null
@@ -52,7 +54,7 @@ job() { # job NAME TARGETS [EXTRA]
   "source": {"file": "in.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
   "targets": [$2],
   "output": {"file": "$1.h5", "dtype": "float64", "block_frames": 8},
-  "springs": {"internal": false, "max_iter": 25${3:-}}
+  "springs": {"internal": false, "max_iter": $maxit${3:-}}
 }
 JOB
 }
@@ -88,8 +90,8 @@ check "summary: no correspondence for fatcat" grep -q '"fatcat": "not needed"' n
 check "provenance names the method" bash -c "h5dump -a /results/fatcat/cat-poses/method np2.h5 | grep -q springs"
 check "frame_stats: 3 x 3 per result" bash -c "h5dump -H -d /results/lion/cat-poses/frame_stats np2.h5 | grep -q 'DATASPACE  SIMPLE { ( 3, 3 )'"
 check "frame_stats: columns named" bash -c "h5dump -a /results/lion/cat-poses/frame_stats/columns np2.h5 | grep -q 'iterations converged inverted'"
-# frame_stats rows: every one written (no -1), iterations 1..25, converged
-# 0 or 1 (and 1 whenever fewer than 25 iterations were taken).
+# frame_stats rows: every one written (no -1), iterations 1..maxit,
+# converged 0 or 1 (and 1 whenever fewer than maxit iterations were taken).
 stats() { # stats RESULT: the frame_stats numbers, space-separated
     h5dump -y -w 0 -d "$1/frame_stats" np2.h5 | awk '/^   DATA \{/ { on = 1; next }
         on && /^   \}/ { exit } on' | tr ',' '\n' | awk 'NF { print $1 + 0 }' | paste -sd' '
@@ -97,16 +99,20 @@ stats() { # stats RESULT: the frame_stats numbers, space-separated
 for t in fatcat self lion; do
     st=$(stats $R/$t/cat-poses)
     echo "frame_stats $t: $st"
-    check "frame_stats of $t: 3 plausible rows" awk '{ if (NF != 9) exit 1
-        for (i = 1; i <= 9; i += 3) if ($i < 1 || $i > 25 || ($(i+1) != 0 && $(i+1) != 1) ||
-            ($i < 25 && $(i+1) != 1) || $(i+2) < 0) exit 1 }' <<< "$st"
+    check "frame_stats of $t: 3 plausible rows" awk -v m=$maxit '{ if (NF != 9) exit 1
+        for (i = 1; i <= 9; i += 3) if ($i < 1 || $i > m || ($(i+1) != 0 && $(i+1) != 1) ||
+            ($i < m && $(i+1) != 1) || $(i+2) < 0) exit 1 }' <<< "$st"
 done
-check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
+if [ "$asan" = 0 ]; then
+    check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
+fi
 
 # The numbers, with h5py: self = the poses up to a translation; the lion
 # within 6% of its diagonal (RMS, centroids removed) of sp04's; the fatcat
 # keeps the fatcat's rest proportions (taller than the cat in every pose).
-if "$PY" -c 'import h5py, numpy' 2> /dev/null; then
+if [ "$asan" = 1 ]; then
+    echo "skipped: the numeric checks (sanitizer build)"
+elif "$PY" -c 'import h5py, numpy' 2> /dev/null; then
     out=$("$PY" - <<'PY'
 import h5py, numpy as np
 f = h5py.File("np2.h5", "r"); s = h5py.File("sp04.h5", "r"); i = h5py.File("in.h5", "r")
