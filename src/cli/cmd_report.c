@@ -319,6 +319,63 @@ static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64
     free(s);
 }
 
+/* Method springs: the per-frame solver figures (frame_stats rows of T x
+ * DTX_H5_FRAME_STATS), summed up, with the frames that did not converge
+ * and the frames with the most inverted triangles. */
+static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, int64_t T)
+{
+    int64_t n = 0, iters = 0, maxit = 0, unconv = 0, inv_frames = 0;
+    int64_t worst[WORST_N], first_unconv[WORST_N];
+    int nw = 0, nu = 0;
+    for (int64_t t = 0; t < T; t++) {
+        const int32_t *row = fs + DTX_H5_FRAME_STATS * t;
+        int k;
+        if (!done[t] || row[0] < 0)
+            continue;
+        n++;
+        iters += row[0];
+        maxit = row[0] > maxit ? row[0] : maxit;
+        if (row[1] == 0) {
+            unconv++;
+            if (nu < WORST_N)
+                first_unconv[nu++] = t;
+        }
+        if (row[2] <= 0)
+            continue;
+        inv_frames++;
+        /* The frames with the most inverted triangles, most first (ties:
+         * lower frame first). */
+        for (k = nw; k > 0 && fs[DTX_H5_FRAME_STATS * worst[k - 1] + 2] < row[2]; k--)
+            if (k < WORST_N)
+                worst[k] = worst[k - 1];
+        if (k < WORST_N) {
+            worst[k] = t;
+            if (nw < WORST_N)
+                nw++;
+        }
+    }
+    if (n == 0)
+        return;
+    fprintf(f, "Newton solves (frame_stats): %.1f iterations per frame on average, at most %lld; "
+               "%lld of %lld frames stopped before converging",
+            (double)iters / (double)n, (long long)maxit, (long long)unconv, (long long)n);
+    for (int k = 0; k < nu; k++)
+        fprintf(f, "%s%lld", k ? ", " : " (frames ", (long long)first_unconv[k]);
+    fprintf(f, "%s; %lld frames have inverted triangles.\n\n", nu ? (unconv > nu ? ", ...)" : ")")
+                                                                  : "",
+            (long long)inv_frames);
+    if (nw > 0) {
+        fprintf(f, "| frame | inverted triangles | Newton iterations | converged |\n"
+                   "|---:|---:|---:|---|\n");
+        for (int k = 0; k < nw; k++) {
+            const int32_t *row = fs + DTX_H5_FRAME_STATS * worst[k];
+            fprintf(f, "| %lld | %d | %d | %s |\n", (long long)worst[k], (int)row[2],
+                    (int)row[0], row[1] ? "yes" : "no");
+        }
+        fputc('\n', f);
+    }
+}
+
 static void write_attr(FILE *f, hid_t h, const char *path, const char *name, const char *label)
 {
     char *v = NULL;
@@ -400,6 +457,16 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
                     rc < 0 ? "frames missing" : "drawing failed, see the message of dtx report");
     }
     write_residuals(f, r, done, res.nframes);
+    if (res.frame_stats >= 0) {
+        int32_t *fs = dtx_alloc((size_t)res.nframes, DTX_H5_FRAME_STATS * sizeof *fs, 0);
+        if (!fs) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            goto done;
+        }
+        if ((st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err)) == DTX_OK)
+            write_frame_stats(f, fs, done, res.nframes);
+        free(fs);
+    }
 done:
     free(tmesh);
     free(r);

@@ -128,6 +128,10 @@ typedef struct {
 typedef struct {
     MPI_Comm comm;
     int rank, nranks, nthreads;
+    int align; /* frames per group: rank ranges, blocks and result chunks are
+                  whole groups (sp04's solve group; 1 for springs, whose
+                  frames are independent and expensive, so that few frames
+                  still spread over the ranks) */
     const dtx_run_opts *opts;
     dtx_job job;
     dtx_mesh src;
@@ -1174,7 +1178,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             prov.correspondence = tc->corr.deformed_src ? tc->corr_path : "";
             st = dtx_h5_result_create(r->out, res_path, &prov, r->sq[s].seq.nframes,
                                       tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
-                                      DTX_FRAME_ALIGN, 0, &rc->res, err);
+                                      r->align, 0, &rc->res, err);
             rc->open = st == DTX_OK;
             if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS)
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
@@ -1235,13 +1239,13 @@ static dtx_status reopen_output(run_state *r, dtx_error *err)
 /* 6. Frames                                                           */
 /* ------------------------------------------------------------------ */
 
-/* The groups (of DTX_FRAME_ALIGN frames) of a result with a frame not done:
+/* The groups (of align frames) of a result with a frame not done:
  * todo[0 .. *ntodo), increasing.  *skipped counts the frames already done
  * in whole groups. */
-static dtx_status groups_todo(const result_ctx *rc, int64_t **todo, int64_t *ntodo,
+static dtx_status groups_todo(const result_ctx *rc, int align, int64_t **todo, int64_t *ntodo,
                               int64_t *skipped, dtx_error *err)
 {
-    int64_t nframes = rc->res.nframes, ng = (nframes + DTX_FRAME_ALIGN - 1) / DTX_FRAME_ALIGN;
+    int64_t nframes = rc->res.nframes, ng = (nframes + align - 1) / align;
     uint8_t *done = dtx_alloc((size_t)nframes, 1, 0);
     dtx_status st;
     *ntodo = *skipped = 0;
@@ -1254,7 +1258,7 @@ static dtx_status groups_todo(const result_ctx *rc, int64_t **todo, int64_t *nto
     }
     st = dtx_h5_result_read_done(&rc->res, done, err);
     for (int64_t g = 0; st == DTX_OK && g < ng; g++) {
-        int64_t f0 = g * DTX_FRAME_ALIGN, f1 = f0 + DTX_FRAME_ALIGN, all = 1;
+        int64_t f0 = g * align, f1 = f0 + align, all = 1;
         f1 = f1 < nframes ? f1 : nframes;
         for (int64_t f = f0; f < f1; f++)
             all &= done[f] == 1;
@@ -1300,7 +1304,7 @@ static void rank_range(int64_t ntodo, int nranks, int q, int rot, int64_t *a, in
 }
 
 typedef struct {
-    int32_t block;         /* frames per block, a multiple of DTX_FRAME_ALIGN */
+    int32_t block;         /* frames per block, a multiple of the run's align */
     double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
     dtx_springs_frame_info *sinfo; /* method springs: block entries */
     int32_t *fstats;       /* method springs: block x DTX_H5_FRAME_STATS */
@@ -1408,13 +1412,13 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
     const target_ctx *tc = &r->tg[t];
     const seq_ctx *sc = &r->sq[s];
     int64_t *todo = NULL, *seg = NULL, ntodo = 0, skipped = 0, a, b, nseg, nseg_max = 0;
-    int64_t gpb = fb->block / DTX_FRAME_ALIGN, nframes = rc->res.nframes;
+    int64_t gpb = fb->block / r->align, nframes = rc->res.nframes;
     int rot = (int)(((int64_t)t * r->ns + s) % r->nranks);
     dtx_status st;
 
     stats_init(&rc->st);
     springs_init(&rc->sp);
-    st = groups_todo(rc, &todo, &ntodo, &skipped, err);
+    st = groups_todo(rc, r->align, &todo, &ntodo, &skipped, err);
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
     for (int q = 0; q < r->nranks; q++) {
@@ -1441,8 +1445,8 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
         int64_t f0 = 0, n = 0;
         double t0, t1, t2;
         if (k < nseg) {
-            f0 = todo[seg[k]] * DTX_FRAME_ALIGN;
-            n = (todo[seg[k + 1] - 1] + 1) * DTX_FRAME_ALIGN - f0;
+            f0 = todo[seg[k]] * r->align;
+            n = (todo[seg[k + 1] - 1] + 1) * r->align - f0;
             n = f0 + n > nframes ? nframes - f0 : n;
         }
         t0 = wtime();
@@ -1507,7 +1511,7 @@ static dtx_status count_todo(run_state *r, dtx_error *err)
                 r->frames_skipped += r->sq[s].seq.nframes;
                 continue;
             }
-            st = groups_todo(rc, &todo, &ntodo, &skipped, err);
+            st = groups_todo(rc, r->align, &todo, &ntodo, &skipped, err);
             r->frames_todo += rc->res.nframes - skipped;
             r->frames_skipped += skipped;
             free(todo);
@@ -1619,8 +1623,8 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     /* Blocks are whole solve groups, so frame arithmetic never depends on
      * how frames are split over ranks or calls. */
     fb.block = r->job.block_frames;
-    if (fb.block % DTX_FRAME_ALIGN)
-        fb.block += DTX_FRAME_ALIGN - fb.block % DTX_FRAME_ALIGN;
+    if (fb.block % r->align)
+        fb.block += r->align - fb.block % r->align;
     for (int t = 0; t < r->nt; t++)
         maxnv = r->tg[t].mesh.nv > maxnv ? r->tg[t].mesh.nv : maxnv;
     fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
@@ -1968,6 +1972,7 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
     if ((st = load_job(comm, job_path, &r.job, err)) != DTX_OK)
         return st;
     snprintf(r.partial, sizeof r.partial, "%s.partial", r.job.output_file);
+    r.align = r.job.method == DTX_METHOD_SPRINGS ? 1 : DTX_FRAME_ALIGN;
     if ((st = read_inputs(&r, err)) != DTX_OK)
         goto fail;
     {

@@ -381,8 +381,8 @@ job j_version src src tgt
 sed -i 's#"dtx_job": 1#"dtx_job": 2#' j_version.json
 reject job-version j_version.h5 'j_version\.json: at /dtx_job: expected 1, got 2' "$DTX" run j_version.json
 job j_method src src tgt
-sed -i 's#"method": "sp04"#"method": "springs"#' j_method.json
-reject job-method j_method.h5 'j_method\.json: /method: this build of dtx runs methods sp04, multicomponent and biharmonic only' "$DTX" run j_method.json
+sed -i 's#"method": "sp04"#"method": "cloth"#' j_method.json
+reject job-method j_method.h5 'j_method\.json: at /method: expected one of sp04, multicomponent, springs, biharmonic, got "cloth"' "$DTX" run j_method.json
 
 # -------------------------------------------------------------- topology
 job j_two src src tgt_two

@@ -7,8 +7,8 @@
 #    (up to a translation: the centroid stays at the rest centroid; to 2e-3
 #    of the diagonal with the cheap settings below);
 #  - "lion": another connectivity, through the sp04 proxy (markers).
-# Three poses; each result is one solve group, and the groups of the three
-# results start on different ranks, so both ranks of the 2-rank run solve.
+# Three poses; springs deals single frames, so both ranks of the 2-rank run
+# solve (2 + 1 frames, the first rank rotating from result to result).
 # Cheap settings (no internal springs, at most 25 Newton iterations: the
 # self target converges in about 23); core.springs tests the method's
 # properties and scripts/bench-springs.sh its speed and accuracy.
@@ -89,6 +89,8 @@ check "summary: 9 frames" grep -q '"frames": 9' np2.h5.summary.json
 check "summary: no correspondence for fatcat" grep -q '"fatcat": "not needed"' np2.h5.summary.json
 check "provenance names the method" bash -c "h5dump -a /results/fatcat/cat-poses/method np2.h5 | grep -q springs"
 check "frame_stats: 3 x 3 per result" bash -c "h5dump -H -d /results/lion/cat-poses/frame_stats np2.h5 | grep -q 'DATASPACE  SIMPLE { ( 3, 3 )'"
+"$DTX" report np2.h5 -o report.md --no-pictures 2> /dev/null
+check "report: the Newton solves of each result" test "$(grep -c '^Newton solves (frame_stats): ' report.md)" -eq 3
 check "frame_stats: columns named" bash -c "h5dump -a /results/lion/cat-poses/frame_stats/columns np2.h5 | grep -q 'iterations converged inverted'"
 # frame_stats rows: every one written (no -1), iterations 1..maxit,
 # converged 0 or 1 (and 1 whenever fewer than maxit iterations were taken).

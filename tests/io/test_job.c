@@ -336,6 +336,32 @@ static void test_defaults(void)
                 "at /springs/start: expected one of linear, rest");
 }
 
+/* Every other example job parses, with its method (files need not exist). */
+static void test_example_jobs(void)
+{
+    static const struct {
+        const char *file;
+        dtx_method method;
+    } ex[] = {{"cat-lion-biharmonic.json", DTX_METHOD_BIHARMONIC},
+              {"cat-lion-springs.json", DTX_METHOD_SPRINGS}};
+    for (size_t i = 0; i < sizeof ex / sizeof *ex; i++) {
+        char path[4096];
+        size_t len = 0;
+        char *text;
+        dtx_job job;
+        dtx_error err_, *err = &err_;
+        snprintf(path, sizeof path, "%s/jobs/%s", DTX_SRC, ex[i].file);
+        text = read_file(path, &len);
+        CHECK(text != NULL);
+        if (!text)
+            continue;
+        CHECK_OK(dtx_job_parse(text, len, path, DTX_SRC "/jobs", 0, &job, err), err);
+        CHECK_EQ_INT(job.method, ex[i].method);
+        dtx_job_free(&job);
+        free(text);
+    }
+}
+
 /* jobs/cat-lion.json, the demo job, parses (its files need not exist). */
 static void test_demo_job(void)
 {
@@ -914,6 +940,7 @@ int main(void)
     test_full_job();
     test_defaults();
     test_demo_job();
+    test_example_jobs();
     test_unknown_keys();
     test_schema_violations();
     test_syntax_errors();
