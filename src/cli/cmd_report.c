@@ -241,14 +241,16 @@ static void write_run(FILE *f, const cJSON *sum, const char *sum_path)
         fprintf(f, " (%s run)", mode->valuestring);
     fprintf(f,
             ".\n\n| ranks | threads per rank | frames | total s | frames/s | read s | "
-            "correspondence s | factor s | transfer s | write s | peak memory MiB |\n"
-            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
+            "key points s | correspondence s | factor s | transfer s | write s | "
+            "peak memory MiB |\n"
+            "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n");
     cell(f, "%.0f", num(sum, "ranks"));
     cell(f, "%.0f", num(sum, "threads_per_rank"));
     cell(f, "%.0f", num(sum, "frames"));
     cell(f, "%.3f", num(sec, "total"));
     cell(f, "%.1f", num(sum, "frames_per_second"));
     cell(f, "%.3f", num(sec, "read"));
+    cell(f, "%.3f", num(sec, "keypoints"));
     cell(f, "%.3f", num(sec, "correspondence"));
     cell(f, "%.3f", num(sec, "factor"));
     cell(f, "%.3f", num(sec, "transfer"));
@@ -261,6 +263,31 @@ static int cmp_dbl(const void *a, const void *b)
 {
     double x = *(const double *)a, y = *(const double *)b;
     return (x > y) - (x < y);
+}
+
+/* Keeps worst[0 .. *nw) (at most WORST_N frames) the frames with the
+ * largest key, largest first (ties: lower frame first), as frames t are
+ * offered in increasing order. */
+static void keep_worst(int64_t *worst, int *nw, int64_t t, double (*key)(const void *, int64_t),
+                       const void *ctx)
+{
+    int k;
+    double kt = key(ctx, t);
+    for (k = *nw; k > 0 && key(ctx, worst[k - 1]) < kt; k--)
+        if (k < WORST_N)
+            worst[k] = worst[k - 1];
+    if (k < WORST_N) {
+        worst[k] = t;
+        if (*nw < WORST_N)
+            (*nw)++;
+    }
+}
+
+static double residual_key(const void *r, int64_t t) { return ((const double *)r)[t]; }
+
+static double inverted_key(const void *fs, int64_t t)
+{
+    return ((const int32_t *)fs)[DTX_H5_FRAME_STATS * t + 2];
 }
 
 /* Per-frame residuals: a row per frame, or quantiles and the worst frames. */
@@ -295,19 +322,9 @@ static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64
         /* The worst frames, largest first (ties: lower frame first). */
         int64_t worst[WORST_N];
         int nw = 0;
-        for (int64_t t = 0; t < T; t++) {
-            int k;
-            if (!done[t] || !isfinite(r[t]))
-                continue;
-            for (k = nw; k > 0 && r[worst[k - 1]] < r[t]; k--)
-                if (k < WORST_N)
-                    worst[k] = worst[k - 1];
-            if (k < WORST_N) {
-                worst[k] = t;
-                if (nw < WORST_N)
-                    nw++;
-            }
-        }
+        for (int64_t t = 0; t < T; t++)
+            if (done[t] && isfinite(r[t]))
+                keep_worst(worst, &nw, t, residual_key, r);
         fprintf(f, "| quantile | residual |\n|---|---:|\n");
         for (int q = 0; q <= 4; q++)
             fprintf(f, "| %d%% | %.6g |\n", 25 * q, s[(n - 1) * q / 4]);
@@ -329,7 +346,6 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
     int nw = 0, nu = 0;
     for (int64_t t = 0; t < T; t++) {
         const int32_t *row = fs + DTX_H5_FRAME_STATS * t;
-        int k;
         if (!done[t] || row[0] < 0)
             continue;
         n++;
@@ -340,18 +356,9 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
             if (nu < WORST_N)
                 first_unconv[nu++] = t;
         }
-        if (row[2] <= 0)
-            continue;
-        inv_frames++;
-        /* The frames with the most inverted triangles, most first (ties:
-         * lower frame first). */
-        for (k = nw; k > 0 && fs[DTX_H5_FRAME_STATS * worst[k - 1] + 2] < row[2]; k--)
-            if (k < WORST_N)
-                worst[k] = worst[k - 1];
-        if (k < WORST_N) {
-            worst[k] = t;
-            if (nw < WORST_N)
-                nw++;
+        if (row[2] > 0) {
+            inv_frames++;
+            keep_worst(worst, &nw, t, inverted_key, fs);
         }
     }
     if (n == 0)

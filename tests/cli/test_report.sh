@@ -50,6 +50,7 @@ check "method" grep -q '^- method: sp04$' $M
 check "target size" grep -q '^- target: /meshes/lion (5000 vertices, 9996 faces)$' $M
 check "complete" grep -q '^- frames: 3, 3 done, complete$' $M
 check "timings table" grep -qE '^\| [0-9]+ \| [0-9]+ \| 3 \| [0-9.]+ \|' $M
+check "timings table has the key-point phase" grep -q "| key points s |" $M
 pic=$(sed -n 's/^!\[.*\](\(.*\))$/\1/p' $M)
 check "picture linked ($pic)" test -n "$pic"
 check "picture is a PNG" test "$(head -c 8 "$pic" 2>/dev/null | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a
