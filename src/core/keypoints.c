@@ -263,6 +263,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     int32_t *cand = NULL, nfaced = 0, tcap = 0, mmax;
     int nthreads;
     dtx_status st = DTX_OK;
+    int reduce_failed = 0; /* the failure came from p->reduce: every part knows */
 
     memset(res, 0, sizeof *res);
     memset(&c, 0, sizeof c);
@@ -296,8 +297,10 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     /* Candidates: as many as requested and the mesh has. */
     {
         unsigned char *used = dtx_alloc((size_t)src->nv, 1, 1);
-        if (!used)
-            return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        if (!used) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            goto fail;
+        }
         for (int64_t i = 0; i < 3 * (int64_t)src->nf; i++)
             used[src->F[i]] = 1;
         for (int32_t i = 0; i < src->nv; i++)
@@ -372,8 +375,11 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             goto fail;
         round_eval(&c, incr, cand, res->ncand, inset, -1, ws[0].labels, res->count + 1, ws,
                    nthreads, p, errs, &res->evaluations, &res->failed);
-        if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, err)) != DTX_OK)
+        if (p->part_count > 1 &&
+            (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
+            reduce_failed = 1;
             goto fail;
+        }
         b = argmin(errs, res->ncand);
         if (b < 0 || !(errs[b] < res->error))
             break;
@@ -399,8 +405,10 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             round_eval(&c, incr, cand, res->ncand, inset, (int)j, ws[0].labels, res->count, ws,
                        nthreads, p, errs, &res->evaluations, &res->failed);
             if (p->part_count > 1 &&
-                (st = p->reduce(p->reduce_ctx, errs, res->ncand, err)) != DTX_OK)
+                (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
+                reduce_failed = 1;
                 goto fail;
+            }
             b = argmin(errs, res->ncand);
             if (b < 0 || !(errs[b] < res->error))
                 continue;
@@ -428,8 +436,19 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     else if ((st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error_exact,
                               err)) != DTX_OK)
         goto fail;
+    /* The closing call: a part that failed after the last round meets it. */
+    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, NULL, 0, 1, err)) != DTX_OK) {
+        reduce_failed = 1;
+        goto fail;
+    }
     goto done;
 fail:
+    if (p->part_count > 1 && !reduce_failed) {
+        /* Failed here alone (or everywhere alike): tell the other parts,
+         * which wait in their next call, and stop with this part's error. */
+        dtx_error e2;
+        p->reduce(p->reduce_ctx, NULL, 0, 0, &e2);
+    }
     res->candidates = NULL;
     free(cand);
     cand = NULL;

@@ -69,8 +69,17 @@
 
 /* Combines the error arrays of all parts: on return err[0..n-1] holds, at
  * every part, the element-wise minimum over the parts.  Returns DTX_OK or
- * an error (with e filled), which stops the selection at every part. */
-typedef dtx_status (*dtx_kp_reduce_fn)(void *ctx, double *errs, int32_t n, dtx_error *e);
+ * an error (with e filled), which stops the selection at every part.
+ *
+ * Every part calls it at the same points, so that a part that fails on its
+ * own (out of memory) cannot leave the others waiting: it then makes one
+ * more call with local_ok = 0 (errs NULL, n 0) and stops, and the function
+ * must first combine local_ok over the parts (logical and) and, when any
+ * part passed 0, return an error at every part without exchanging errs.
+ * After the last round every part also makes a closing call (errs NULL,
+ * n 0, local_ok 1), which a failing part's call meets. */
+typedef dtx_status (*dtx_kp_reduce_fn)(void *ctx, double *errs, int32_t n, int local_ok,
+                                       dtx_error *e);
 
 typedef struct {
     int32_t candidates; /* nc, farthest-point samples (paper: 100); >= 1 */

@@ -76,27 +76,34 @@ done:
 /* Selection across ranks                                              */
 /* ------------------------------------------------------------------ */
 
-static dtx_status reduce_min(void *ctx, double *errs, int32_t n, dtx_error *err)
+static dtx_status reduce_min(void *ctx, double *errs, int32_t n, int local_ok, dtx_error *err)
 {
     MPI_Comm comm = *(MPI_Comm *)ctx;
-    int rc = MPI_Allreduce(MPI_IN_PLACE, errs, (int)n, MPI_DOUBLE, MPI_MIN, comm), ok;
-    /* Every rank learns whether every rank's reduction worked. */
-    ok = rc == MPI_SUCCESS;
+    int ok = local_ok != 0;
+    /* Whether every rank got here without failing first: a rank that
+     * failed on its own calls with local_ok 0 and n 0. */
     MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_LAND, comm);
     if (!ok)
+        return dtx_seterr(err, DTX_EMPI, "key points: another rank failed");
+    if (n > 0 && MPI_Allreduce(MPI_IN_PLACE, errs, (int)n, MPI_DOUBLE, MPI_MIN, comm) !=
+                     MPI_SUCCESS)
         return dtx_seterr(err, DTX_EMPI, "key points: combining the ranks' errors failed");
     return DTX_OK;
 }
 
-/* The status and message of the lowest failing rank, on every rank. */
+/* The status and message of the lowest failing rank, on every rank; a rank
+ * whose own failure is the real one wins over ranks that only heard of it
+ * ("another rank failed", DTX_EMPI). */
 static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
 {
-    int rank, mine, first;
+    int rank, nranks, mine, first;
     MPI_Comm_rank(comm, &rank);
-    mine = st != DTX_OK ? rank : INT_MAX;
+    MPI_Comm_size(comm, &nranks);
+    mine = st == DTX_OK ? INT_MAX : (st == DTX_EMPI ? nranks + rank : rank);
     MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
     if (first == INT_MAX)
         return DTX_OK;
+    first = first >= nranks ? first - nranks : first;
     {
         int code = (int)err->code;
         MPI_Bcast(&code, 1, MPI_INT, first, comm);

@@ -66,14 +66,22 @@ static int same(const dtx_kp_result *a, const dtx_kp_result *b)
 typedef struct {
     double *slot[2];
     int32_t n;
+    int ok[2], calls[2];
 } two_parts;
 
-static dtx_status reduce_two(void *ctx, double *errs, int32_t n, dtx_error *e)
+static dtx_status reduce_two(void *ctx, double *errs, int32_t n, int local_ok, dtx_error *e)
 {
     two_parts *tp = ctx;
-    int me = omp_get_thread_num();
-    (void)e;
-    memcpy(tp->slot[me], errs, (size_t)n * sizeof *errs);
+    int me = omp_get_thread_num(), ok;
+    tp->ok[me] = local_ok;
+    tp->calls[me]++;
+#pragma omp barrier
+    ok = tp->ok[0] && tp->ok[1];
+#pragma omp barrier
+    if (!ok)
+        return dtx_seterr(e, DTX_EMPI, "another part failed");
+    if (n > 0)
+        memcpy(tp->slot[me], errs, (size_t)n * sizeof *errs);
 #pragma omp barrier
     for (int32_t i = 0; i < n; i++) {
         double a = tp->slot[0][i], b = tp->slot[1][i];
@@ -172,6 +180,70 @@ static void run_all(const char *what, const dtx_mesh *m, int32_t nframes, const 
     dtx_kp_result_free(&rbig);
 }
 
+/* A part failing on its own (here: too few key points allowed for the two
+ * components of a doubled capsule, found before the first round) tells the
+ * other part through the reduce and stops; the other part, waiting in its
+ * first round's reduce, stops too (without the protocol it would wait at
+ * the barrier forever and the test would time out). */
+static void test_part_failure(const dtx_mesh *m, int32_t nframes, const double *X)
+{
+    dtx_mesh d = {0};
+    double *Y = malloc(sizeof *Y * (size_t)nframes * 6 * m->nv);
+    two_parts tp;
+    dtx_kp_result r[2];
+    dtx_error e[2];
+    dtx_status s[2];
+    int32_t nc = 10;
+    d.nv = 2 * m->nv;
+    d.nf = 2 * m->nf;
+    d.V = malloc(sizeof *d.V * 3 * (size_t)d.nv);
+    d.F = malloc(sizeof *d.F * 3 * (size_t)d.nf);
+    for (int32_t i = 0; i < 3 * m->nv; i++) {
+        d.V[i] = m->V[i];
+        d.V[3 * m->nv + i] = m->V[i] + (i % 3 == 0 ? 10.0 : 0.0);
+    }
+    for (int32_t i = 0; i < 3 * m->nf; i++) {
+        d.F[i] = m->F[i];
+        d.F[3 * m->nf + i] = m->F[i] + m->nv;
+    }
+    for (int32_t f = 0; f < nframes; f++)
+        for (int32_t i = 0; i < 3 * m->nv; i++) {
+            const double x = X[(size_t)f * 3 * m->nv + i];
+            Y[(size_t)f * 6 * m->nv + i] = x;
+            Y[(size_t)f * 6 * m->nv + 3 * m->nv + i] = x + (i % 3 == 0 ? 10.0 : 0.0);
+        }
+    memset(&tp, 0, sizeof tp);
+    tp.n = nc;
+    tp.slot[0] = calloc((size_t)nc, sizeof(double));
+    tp.slot[1] = calloc((size_t)nc, sizeof(double));
+#pragma omp parallel num_threads(2)
+    {
+        int me = omp_get_thread_num();
+        dtx_kp_params q;
+        dtx_kp_params_default(&q);
+        q.candidates = nc;
+        q.eps = 0.0;
+        q.max_keys = me == 1 ? 1 : 4;
+        q.threads = 1;
+        q.part_index = me;
+        q.part_count = 2;
+        q.reduce = reduce_two;
+        q.reduce_ctx = &tp;
+        s[me] = dtx_keypoints_select(&d, nframes, Y, &q, &r[me], &e[me]);
+    }
+    CHECK_INT(s[1], ==, DTX_EINVAL);
+    CHECK(strstr(e[1].msg, "more components than max_keys") != NULL);
+    CHECK_INT(s[0], ==, DTX_EMPI);
+    CHECK(strstr(e[0].msg, "another part failed") != NULL);
+    CHECK_INT(tp.calls[0], ==, 1);
+    CHECK_INT(tp.calls[1], ==, 1);
+    CHECK(r[0].keys == NULL && r[1].keys == NULL);
+    free(tp.slot[0]);
+    free(tp.slot[1]);
+    free(Y);
+    dtx_mesh_free(&d);
+}
+
 static void test_capsule(void)
 {
     dtx_mesh m = {0};
@@ -182,6 +254,7 @@ static void test_capsule(void)
     for (int f = 0; f < NF; f++)
         deform(m.V, m.nv, (f + 1) / (double)NF, X + (size_t)f * 3 * m.nv);
     run_all("capsule", &m, NF, X, 14, 1);
+    test_part_failure(&m, NF, X);
 
     /* Bad input. */
     {
