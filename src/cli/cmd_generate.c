@@ -113,6 +113,17 @@ static int num_opt(const gen_args *g, const char *name, double def, double *out)
     return 0;
 }
 
+/* The --axis option given (the caller checked it is there): x, y or z (or
+ * 0, 1, 2) -> 0, 1, 2; returns 0, or a usage error's 2. */
+static int axis_opt(const gen_args *g, int *axis)
+{
+    const char *ax = val(g, "--axis");
+    if (strlen(ax) != 1 || !strchr("xyz012", ax[0]))
+        return usage_error("--axis must be x, y or z (got '%s')", ax);
+    *axis = ax[0] >= 'x' ? ax[0] - 'x' : ax[0] - '0';
+    return 0;
+}
+
 /* "I,J,K" -> a new array of 0-based vertex indices. */
 static int parse_anchors(const char *s, int32_t **out, int32_t *n)
 {
@@ -297,13 +308,9 @@ static int parse_params(const gen_args *g, gen_params *p)
         if (p->gap < 0 || p->thickness < 0)
             return usage_error("--gap and --thickness must be >= 0");
     } else if (g->kind == KIND_RESHAPE) {
-        const char *ax = val(g, "--axis");
-        if (!ax)
+        if (!val(g, "--axis"))
             return usage_error("reshape needs --axis (the up axis: x, y or z)");
-        if (strlen(ax) != 1 || !strchr("xyz012", ax[0]))
-            return usage_error("--axis must be x, y or z (got '%s')", ax);
-        p->axis = ax[0] >= 'x' ? ax[0] - 'x' : ax[0] - '0';
-        if ((r = num_opt(g, "--thicken", 1.25, &p->thicken)) ||
+        if ((r = axis_opt(g, &p->axis)) || (r = num_opt(g, "--thicken", 1.25, &p->thicken)) ||
             (r = num_opt(g, "--legs", 1.4, &p->legs)) || (r = num_opt(g, "--lo", 0.35, &p->lo)))
             return r;
         if (!(p->thicken > 0) || !(p->legs > 0))
@@ -312,14 +319,10 @@ static int parse_params(const gen_args *g, gen_params *p)
         if (!(p->lo >= 0 && p->lo <= 1))
             return usage_error("--lo must be in [0, 1] (got %g)", p->lo);
     } else if (g->kind == KIND_GARMENT) {
-        const char *ax = val(g, "--axis");
-        if (!ax || !val(g, "--lo") || !val(g, "--hi"))
+        if (!val(g, "--axis") || !val(g, "--lo") || !val(g, "--hi"))
             return usage_error("garment needs --axis, --lo and --hi");
-        if (strlen(ax) != 1 || !strchr("xyz012", ax[0]))
-            return usage_error("--axis must be x, y or z (got '%s')", ax);
-        p->axis = ax[0] >= 'x' ? ax[0] - 'x' : ax[0] - '0';
-        if ((r = num_opt(g, "--lo", 0, &p->lo)) || (r = num_opt(g, "--hi", 0, &p->hi)) ||
-            (r = num_opt(g, "--offset", 0.01, &p->offset)))
+        if ((r = axis_opt(g, &p->axis)) || (r = num_opt(g, "--lo", 0, &p->lo)) ||
+            (r = num_opt(g, "--hi", 0, &p->hi)) || (r = num_opt(g, "--offset", 0.01, &p->offset)))
             return r;
         if (!(p->lo < p->hi))
             return usage_error("--lo must be below --hi (got %g and %g)", p->lo, p->hi);
