@@ -665,6 +665,25 @@ static int compare_block(const void *x, const void *y)
 }
 
 /* The level's Hessian pattern, offpos, mu, and its symbolic factorisation. */
+/* The level's Hessian pattern (upper triangle, 3 nfree columns) as a
+ * CHOLMOD matrix header over L's arrays, with values x (nnz entries), or
+ * the pattern alone when x is NULL. */
+static void hessian_view(const level *L, double *x, cholmod_sparse *A)
+{
+    memset(A, 0, sizeof *A);
+    A->nrow = A->ncol = 3 * (size_t)L->nfree;
+    A->nzmax = (size_t)L->nnz;
+    A->p = L->colp;
+    A->i = L->rowi;
+    A->x = x;
+    A->stype = 1;
+    A->itype = CHOLMOD_INT;
+    A->xtype = x ? CHOLMOD_REAL : CHOLMOD_PATTERN;
+    A->dtype = CHOLMOD_DOUBLE;
+    A->sorted = 1;
+    A->packed = 1;
+}
+
 static dtx_status level_pattern(level *L, double damping, cholmod_common *cc, dtx_error *err)
 {
     const int32_t ns = L->springs.n, nf = L->nfree;
@@ -752,17 +771,7 @@ static dtx_status level_pattern(level *L, double damping, cholmod_common *cc, dt
 
     if (nf == 0)
         return DTX_OK;
-    memset(&A, 0, sizeof A);
-    A.nrow = A.ncol = 3 * (size_t)nf;
-    A.nzmax = (size_t)nnz;
-    A.p = L->colp;
-    A.i = L->rowi;
-    A.stype = 1;
-    A.itype = CHOLMOD_INT;
-    A.xtype = CHOLMOD_PATTERN;
-    A.dtype = CHOLMOD_DOUBLE;
-    A.sorted = 1;
-    A.packed = 1;
+    hessian_view(L, NULL, &A);
     L->L = cholmod_analyze(&A, cc);
     if (!L->L || cc->status < CHOLMOD_OK) {
         if (cc->status == CHOLMOD_OUT_OF_MEMORY)
@@ -1317,18 +1326,7 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
         res->converged = 1;
         return;
     }
-    memset(&A, 0, sizeof A);
-    A.nrow = A.ncol = n3;
-    A.nzmax = (size_t)L->nnz;
-    A.p = L->colp;
-    A.i = L->rowi;
-    A.x = lw->Hx;
-    A.stype = 1;
-    A.itype = CHOLMOD_INT;
-    A.xtype = CHOLMOD_REAL;
-    A.dtype = CHOLMOD_DOUBLE;
-    A.sorted = 1;
-    A.packed = 1;
+    hessian_view(L, lw->Hx, &A);
 
     while (res->iterations < max_iter) {
         double gmax = 0.0, dmax2 = 0.0, slope = 0.0, alpha = 1.0, et = e;
@@ -1529,7 +1527,6 @@ static void source_rotations(const dtx_springs_plan *p, const level *L, const do
 static int linear_start(const level *L, level_work *lw, const double *rot, const level *C,
                         const double *xc, cholmod_common *cc)
 {
-    const size_t n3 = 3 * (size_t)L->nfree;
     double *b, *x = lw->x;
     const double *sol;
     cholmod_sparse A;
@@ -1584,18 +1581,7 @@ static int linear_start(const level *L, level_work *lw, const double *rot, const
                 lw->Hx[op[c] + c] -= k;
         }
     }
-    memset(&A, 0, sizeof A);
-    A.nrow = A.ncol = n3;
-    A.nzmax = (size_t)L->nnz;
-    A.p = L->colp;
-    A.i = L->rowi;
-    A.x = lw->Hx;
-    A.stype = 1;
-    A.itype = CHOLMOD_INT;
-    A.xtype = CHOLMOD_REAL;
-    A.dtype = CHOLMOD_DOUBLE;
-    A.sorted = 1;
-    A.packed = 1;
+    hessian_view(L, lw->Hx, &A);
     if (!factorize(&A, lw->L, cc) ||
         !cholmod_solve2(CHOLMOD_A, lw->L, lw->B, NULL, &lw->X, NULL, &lw->Y, &lw->E, cc))
         return 0;
