@@ -9,6 +9,7 @@
 #include "meshgen.h"
 
 #include "check.h"
+#include "bbw_checks.h"
 
 #include <math.h>
 #include <omp.h>
@@ -105,39 +106,6 @@ static void gen_two_capsules(dtx_mesh *m)
     for (int32_t k = 0; k < 3 * a.nf; k++)
         m->F[3 * a.nf + k] = a.F[k] + a.nv;
     dtx_mesh_free(&a);
-}
-
-static double max_abs_diff(const double *a, const double *b, size_t n)
-{
-    double d = 0.0;
-    for (size_t i = 0; i < n; i++)
-        d = fmax(d, fabs(a[i] - b[i]));
-    return d;
-}
-
-/* w_k(h_j) = delta_jk exactly, rows sum to 1 within tol, entries in [lo, hi]. */
-static void check_weights(const double *W, int32_t nv, const int32_t *h, int32_t m, double tol,
-                          double lo, double hi)
-{
-    double worst_sum = 0.0, below = 0.0, above = 0.0;
-    int exact = 1;
-    for (int32_t j = 0; j < m; j++)
-        for (int32_t k = 0; k < m; k++)
-            exact &= W[(size_t)h[j] * m + k] == (j == k ? 1.0 : 0.0);
-    CHECK(exact);
-    for (int32_t i = 0; i < nv; i++) {
-        double s = 0.0;
-        for (int32_t k = 0; k < m; k++) {
-            double w = W[(size_t)i * m + k];
-            s += w;
-            below = fmin(below, w - lo);
-            above = fmax(above, w - hi);
-        }
-        worst_sum = fmax(worst_sum, fabs(s - 1.0));
-    }
-    CHECK_DBL(worst_sum, <=, tol);
-    CHECK_DBL(below, >=, 0.0);
-    CHECK_DBL(above, <=, 0.0);
 }
 
 /* ------------------------------------------------------------------ */
