@@ -241,10 +241,23 @@ double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);
 /* Multi-component transfer (transfer_mc.c; Zhou et al. 2010, 2.3)     */
 /* ------------------------------------------------------------------ */
 
+/* How E3 measures a proximity pair's length change (transfer_mc.c):
+ *  RELATIVE: (|x_i - x_j| - l) / l, l floored at a tenth of the target's
+ *    mean edge, each pair's square divided by the mean number of pairs at
+ *    its two ends (so every vertex in pairs carries about one unit of
+ *    weight, whatever the pair density); scale-free like E1.  The default,
+ *    with w_proximity 3.
+ *  DIAGONAL: the paper's absolute (|x_i - x_j| - l)^2, lengths in units of
+ *    the target's bounding-box diagonal; the paper's w_proximity is 0.1
+ *    (DTX_MC_W_PROXIMITY_DIAGONAL). */
+typedef enum { DTX_MC_LENGTHS_RELATIVE = 0, DTX_MC_LENGTHS_DIAGONAL = 1 } dtx_mc_lengths;
+#define DTX_MC_W_PROXIMITY_DIAGONAL 0.1
+
 typedef struct {
     double w_match;     /* E1, matched gradients [1] */
     double w_orphan;    /* E2, orphan-triangle smoothness over one-rings [1] */
-    double w_proximity; /* E3, proximity-pair lengths kept [0.1] */
+    double w_proximity; /* E3, proximity-pair lengths kept [3; 0.1 for DIAGONAL] */
+    dtx_mc_lengths lengths; /* E3's measure of a length change [RELATIVE] */
     double w_laplacian; /* E4, Laplacian-coordinate lengths of orphan components [1] */
     double eps_factor;  /* proximity threshold: this x a component's longest edge [1.5] */
     int max_iter;       /* Gauss-Newton iterations per frame at most [30] */
@@ -252,7 +265,7 @@ typedef struct {
                            target's bounding-box diagonal [1e-6] */
 } dtx_mc_params;
 
-/* The paper's values. */
+/* The paper's values, except E3's measure (RELATIVE, weight 3). */
 void dtx_mc_params_default(dtx_mc_params *p);
 
 /* What a plan found in the target (for summaries). */

@@ -1674,6 +1674,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             mp.w_match = r->job.mc.w_match;
             mp.w_orphan = r->job.mc.w_orphan;
             mp.w_proximity = r->job.mc.w_proximity;
+            mp.lengths = (dtx_mc_lengths)r->job.mc.lengths;
             mp.w_laplacian = r->job.mc.w_laplacian;
             mp.eps_factor = r->job.mc.eps_factor;
             mp.max_iter = r->job.mc.max_iter;

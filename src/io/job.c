@@ -552,12 +552,20 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         job->mc.w_match = d.w_match;
         job->mc.w_orphan = d.w_orphan;
         job->mc.w_proximity = d.w_proximity;
+        job->mc.lengths = d.lengths;
         job->mc.w_laplacian = d.w_laplacian;
         job->mc.eps_factor = d.eps_factor;
         job->mc.max_iter = d.max_iter;
         job->mc.tol = d.tol;
     }
     if (mc) {
+        /* The paper's absolute lengths come with the paper's weight
+         * unless w_proximity is given. */
+        if (cJSON_IsString(x = get(mc, "proximity_lengths")) &&
+            strcmp(x->valuestring, "diagonal") == 0) {
+            job->mc.lengths = DTX_MC_LENGTHS_DIAGONAL;
+            job->mc.w_proximity = DTX_MC_W_PROXIMITY_DIAGONAL;
+        }
         if (cJSON_IsNumber(x = get(mc, "w_match")))
             job->mc.w_match = x->valuedouble;
         if (cJSON_IsNumber(x = get(mc, "w_orphan")))
@@ -1097,10 +1105,12 @@ char *dtx_job_params_json(const dtx_job *job)
     if (job->method == DTX_METHOD_MULTICOMPONENT) {
         const dtx_mc_job_params *q = &job->mc;
         sb_printf(&b,
-                  "{\"eps_factor\":%.17g,\"max_iter\":%d,\"tol\":%.17g,\"w_laplacian\":%.17g,"
-                  "\"w_match\":%.17g,\"w_orphan\":%.17g,\"w_proximity\":%.17g},\"sp04\":",
-                  q->eps_factor, q->max_iter, q->tol, q->w_laplacian, q->w_match, q->w_orphan,
-                  q->w_proximity);
+                  "{\"eps_factor\":%.17g,\"max_iter\":%d,\"proximity_lengths\":\"%s\","
+                  "\"tol\":%.17g,\"w_laplacian\":%.17g,\"w_match\":%.17g,\"w_orphan\":%.17g,"
+                  "\"w_proximity\":%.17g},\"sp04\":",
+                  q->eps_factor, q->max_iter,
+                  q->lengths == DTX_MC_LENGTHS_DIAGONAL ? "diagonal" : "relative", q->tol,
+                  q->w_laplacian, q->w_match, q->w_orphan, q->w_proximity);
     }
     if (job->method == DTX_METHOD_BIHARMONIC) {
         const dtx_bh_job_params *q = &job->bh;

@@ -83,6 +83,7 @@ typedef struct {
 /* multicomponent transfer parameters (defaults: dtx_mc_params_default). */
 typedef struct {
     double w_match, w_orphan, w_proximity, w_laplacian, eps_factor, tol;
+    int lengths; /* "proximity_lengths": a dtx_mc_lengths (dtx_core.h) */
     int max_iter;
 } dtx_mc_job_params;
 

@@ -8,6 +8,7 @@
 #endif
 
 #include "check.h"
+#include "dtx_core.h"
 #include "job.h"
 #include "json_schema.h"
 
@@ -854,6 +855,47 @@ static void test_params_json(void)
     CHECK(dtx_job_params_json(NULL) == NULL);
 }
 
+/* The multicomponent object: E3's measure and the weight that goes with it. */
+static void test_multicomponent_params(void)
+{
+    static const struct {
+        const char *obj;
+        int lengths;
+        double w;
+    } cases[] = {
+        {"{}", DTX_MC_LENGTHS_RELATIVE, 3.0},
+        {"{\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL, 0.1},
+        {"{\"w_proximity\":2,\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL,
+         2.0},
+        {"{\"proximity_lengths\":\"relative\",\"w_proximity\":0.5}", DTX_MC_LENGTHS_RELATIVE,
+         0.5},
+    };
+    dtx_job job;
+    dtx_error err_, *err = &err_;
+    char text[8192], tail[256], mc[8192], *m, *p;
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        snprintf(tail, sizeof tail, ",\"multicomponent\":%s", cases[i].obj);
+        snprintf(text, sizeof text, "%s", job_text(NULL, NULL, NULL, tail));
+        m = strstr(text, "\"method\":\"sp04\"");
+        CHECK(m != NULL);
+        if (!m)
+            return;
+        snprintf(mc, sizeof mc, "%.*s\"method\":\"multicomponent\"%s", (int)(m - text), text,
+                 m + strlen("\"method\":\"sp04\""));
+        CHECK_OK(parse(mc, "/data", 0, &job, err), err);
+        CHECK_EQ_INT(job.mc.lengths, cases[i].lengths);
+        CHECK(job.mc.w_proximity == cases[i].w);
+        p = dtx_job_params_json(&job);
+        CHECK(p && strstr(p, cases[i].lengths == DTX_MC_LENGTHS_DIAGONAL
+                                 ? "\"proximity_lengths\":\"diagonal\""
+                                 : "\"proximity_lengths\":\"relative\"") != NULL);
+        free(p);
+        dtx_job_free(&job);
+    }
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"multicomponent\":{\"proximity_lengths\":\"absolute\"}"),
+                "at /multicomponent/proximity_lengths:");
+}
+
 /* The fuzzer's seed inputs: bad-*.json are rejected with a message that
  * starts with the file name, the others parse. */
 static void test_corpus(void)
@@ -948,6 +990,7 @@ int main(void)
     test_output_vs_inputs();
     test_files();
     test_params_json();
+    test_multicomponent_params();
     test_corpus();
     test_fuzz_regressions();
     return check_report();
