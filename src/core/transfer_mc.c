@@ -628,6 +628,13 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     cholmod_start(&p->cc);
     p->cc.print = 0;
     p->cc.supernodal = CHOLMOD_SIMPLICIAL;
+    /* Nested dissection (METIS): every iteration of every frame is a
+     * back-substitution, bound by the factor's size, and on the 59,000-
+     * vertex pebble camel the factor is 18% smaller than with AMD (3.57 M
+     * entries against 4.35 M): 7-9% faster frames for 0.5 s more
+     * analysis. */
+    p->cc.nmethods = 1;
+    p->cc.method[0].ordering = CHOLMOD_NESDIS;
     p->nv_s = src->nv;
     p->nf_s = src->nf;
     p->nv_t = nv;
