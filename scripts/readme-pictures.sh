@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # readme-pictures.sh: redraw the contact sheets the README shows
-# (tests/data/pictures/cat-lion.png and horse-camel.png) with the built dtx.
+# (tests/data/pictures/cat-lion.png, cat-pebble-lion.png,
+# cat-pebble-lion-diagonal.png, cat-lion-shirt.png and horse-camel.png) with
+# the built dtx.
 #
 # Usage: scripts/readme-pictures.sh [DTX] [SHARED_DATA]
 #   DTX          the dtx binary (default build/dtx)
@@ -43,6 +45,35 @@ job "$tmp/cl.json" "$tmp/cl.h5" "$tmp/cl-out.h5" lion m cat-poses
 "$dtx" run --quiet "$tmp/cl.json"
 "$dtx" render "$tmp/cl-out.h5" /results/lion/cat-poses -o "$out/cat-lion.png" --count 9 --cols 9 \
     --width 1800
+
+# cat -> multi-component lions (method multicomponent): the pebble lion with
+# E3 in relative lengths (the default) and in the paper's absolute lengths,
+# and the lion with a shirt; poses 1, 4 and 9.
+T=$tmp/mc-targets
+DTX=$dtx DTX_DATA_DIR=$tmp "$repo/scripts/make-multicomponent-targets.sh" "$T" 2> /dev/null
+for t in pebble-lion lion-garment; do
+    "$dtx" import mesh "$T/$t.obj" -o "$tmp/cl.h5" --name "$t" 2> /dev/null
+done
+for mode in relative diagonal; do
+    cat > "$tmp/mc-$mode.json" <<JOB
+{"dtx_job": 1, "method": "multicomponent",
+ "source": {"file": "$tmp/cl.h5", "mesh": "/meshes/src", "sequences": ["/sequences/cat-poses"]},
+ "targets": [
+   {"file": "$tmp/cl.h5", "mesh": "/meshes/pebble-lion",
+    "markers": {"csv": "$T/pebble-lion-markers.csv", "index_base": 0}},
+   {"file": "$tmp/cl.h5", "mesh": "/meshes/lion-garment",
+    "markers": {"csv": "$T/lion-garment-markers.csv", "index_base": 0}}],
+ "output": {"file": "$tmp/mc-$mode.h5"},
+ "multicomponent": {"eps_factor": 0.5, "proximity_lengths": "$mode"}}
+JOB
+    "$dtx" run --quiet "$tmp/mc-$mode.json"
+    "$dtx" render "$tmp/mc-$mode.h5" /results/pebble-lion/cat-poses -o "$tmp/peb-$mode.png" \
+        --frames 0,3,8 --color component --width 1200 > /dev/null
+done
+cp "$tmp/peb-relative.png" "$out/cat-pebble-lion.png"
+cp "$tmp/peb-diagonal.png" "$out/cat-pebble-lion-diagonal.png"
+"$dtx" render "$tmp/mc-relative.h5" /results/lion-garment/cat-poses -o "$out/cat-lion-shirt.png" \
+    --frames 0,3,8 --color component --width 1200 > /dev/null
 
 # horse gallop -> camel: the shared data, every sixth frame.
 H=$shared/sumner-horse-camel
