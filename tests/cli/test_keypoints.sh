@@ -14,11 +14,7 @@ set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 cd "$W"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 has() { grep -Eq -- "$2" "$1" || { echo "  $1 lacks: $2"; sed 's/^/  | /' "$1" | head -20; return 1; }; }
 
 "$DTX" import mesh "$D/source/cat-reference.obj" -o in.h5 --name cat 2> /dev/null
@@ -124,5 +120,4 @@ fail f_csvdir e.h5 'nodir/x.csv' "${ARGS[@]}" "${SMALL[@]}" --csv nodir/x.csv
 check "f_csvdir: no key points written" \
     bash -c "! h5dump -H -g /keypoints/cat-keys e.h5 > /dev/null 2>&1"
 
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

@@ -28,7 +28,7 @@ check "bash -n accepted a broken script" not bash -n "$scratch/broken.sh" 2> /de
 
 shopt -s nullglob
 entry=("$src"/scripts/*.sh "$src/.ci/run")
-all=("${entry[@]}" "$src"/tests/*/*.sh)
+all=("${entry[@]}" "$src"/tests/*.sh "$src"/tests/*/*.sh)
 check "expected scripts/*.sh and .ci/run, found ${#entry[@]} files" test ${#entry[@]} -ge 7
 
 for f in "${all[@]}"; do

@@ -15,11 +15,7 @@ set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 cd "$W"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 MPIRUN=(mpirun --oversubscribe --bind-to none)
 
 "$DTX" import mesh "$D/source/cat-reference.obj" -o in.h5 --name cat 2> /dev/null
@@ -151,5 +147,4 @@ bad b_pins '{}' 'at /targets/0/pins: method biharmonic does not support pins' \
 bad b_trpins '{}' 'at /targets/0/translation: method biharmonic does not support pins' \
     ', "translation": "pins"'
 
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

@@ -26,11 +26,7 @@ set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 PY=/usr/bin/python3
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 quiet() { "$@" > /dev/null; } # quiet COMMAND...: its stdout discarded
 differs() { ! "$DTX" diff "$@" > /dev/null; } # differs A B RESULT [--tol X]
 t_start=$SECONDS
@@ -208,5 +204,4 @@ check "s12: lion result bitwise equal to s1" quiet "$DTX" diff "$W/s1.h5" "$W/s1
 check "s12: output validates" quiet "$DTX" validate "$W/s12.h5"
 
 echo "runtime $((SECONDS - t_start)) s"
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

@@ -7,11 +7,7 @@
 set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 rm -rf "${W:?}"/*
 "$DTX" import mesh "$D/source/cat-reference.obj" -o "$W/in.h5" --name cat
 "$DTX" import mesh "$D/target/lion-reference.obj" -o "$W/in.h5" --name lion
@@ -69,5 +65,4 @@ head -c 400 "$W/fsize.err"; echo
 OMP_NUM_THREADS=1 "$DTX" run --quiet --resume "$W/job.json"
 check "after the failure, --resume completes a valid output" "$DTX" validate "$W/out.h5"
 
-echo "faults: $fails failed"
-test "$fails" -eq 0
+finish

@@ -19,11 +19,7 @@ set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 PY=/usr/bin/python3
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 quiet() { "$@" > /dev/null; } # quiet COMMAND...: its stdout discarded
 stray() { # stray DIR GLOB...: the names of the files in DIR matching the globs
     local d=$1 g f
@@ -269,5 +265,4 @@ check "sequences /sequences/poses and /sequences/more/poses (both /results/lion/
     refused dupbase 'more/poses'
 
 echo "runtime $((SECONDS - t_start)) s"
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

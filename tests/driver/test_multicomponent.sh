@@ -8,11 +8,7 @@
 set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 
 DTX="$DTX" DTX_DATA_DIR="$DTX_BUILD/data" "$DTX_SRC/scripts/make-multicomponent-targets.sh" "$W/targets" 2> "$W/make.log"
 "$DTX" import mesh "$D/source/cat-reference.obj" -o "$W/in.h5" --name cat
@@ -67,5 +63,4 @@ else
     check "sp04 points at multicomponent" grep -q 'connected components.*multicomponent' "$W/sp04.log"
 fi
 
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

@@ -6,11 +6,7 @@
 set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 
 "$DTX" import mesh "$D/source/cat-reference.obj" -o "$W/cl.h5" --name cat
 "$DTX" import mesh "$D/target/lion-reference.obj" -o "$W/cl.h5" --name lion
@@ -59,5 +55,4 @@ check "rerun gives the same result" "$DTX" diff "$W/np1.h5" "$W/np2.h5" $R --tol
 check "export writes 9 frames" test "$(ls "$W/exported" | wc -l)" -eq 9
 check "diff notices a different result" bash -c "! '$DTX' diff '$W/np1.h5' '$W/np1.h5' /results/nope 2>/dev/null"
 
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

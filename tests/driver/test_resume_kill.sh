@@ -24,11 +24,7 @@ D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 PY=/usr/bin/python3
 NFRAMES=${DTX_TEST_RESUME_FRAMES:-2000}
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 quiet() { "$@" > /dev/null; } # quiet COMMAND...: its stdout discarded
 now_ms() { echo $(( $(date +%s%N) / 1000000 )); }
 sleep_until() { # sleep_until T0_MS DELAY_MS: sleeps until T0 + DELAY (milliseconds)
@@ -368,5 +364,4 @@ check "the bitwise comparison tells the two jobs' results apart" \
     bash -c "[ -e '$W/k.h5' ] && ! $PY '$W/check.py' same '$W/ref.h5' '$W/k.h5' > /dev/null"
 
 echo "runtime $((SECONDS - t_start)) s"
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish

@@ -23,11 +23,7 @@ set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 cd "$W"
-fails=0
-check() { # check DESCRIPTION COMMAND...
-    local what=$1; shift
-    if "$@"; then echo "ok: $what"; else echo "FAILED: $what"; fails=$((fails + 1)); fi
-}
+. "$DTX_SRC/tests/lib.sh"
 MPIRUN=(mpirun --oversubscribe --bind-to none)
 PY=/usr/bin/python3
 asan=0 maxit=25
@@ -166,5 +162,4 @@ else
     check "bad levels: message names the field" grep -q 'badlevels.json: at /springs/levels' badlevels.log
 fi
 
-echo "$((fails == 0 ? 1 : 0)) passed, $fails failed"
-[ "$fails" -eq 0 ]
+finish
