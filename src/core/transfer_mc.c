@@ -12,10 +12,11 @@
  *     E4 = sum over vertices of orphan components
  *                                        | L x - dhat(x) |^2 / h^2
  *
- * is minimised (paper: w1 = w2 = w4 = 1, w3 = 0.1).  An orphan triangle is a
- * target triangle in no pair; an orphan component one with no paired
- * triangle; the one-ring of a triangle is every triangle sharing a vertex
- * with it; L is the uniform Laplacian of the component and dhat(x) = L x
+ * is minimised (paper: w1 = w2 = w4 = 1, w3 = 0.1; dtx: w3 = 3 with E3 in
+ * relative lengths, see below).  An orphan triangle is a target triangle in
+ * no pair; an orphan component one with no paired triangle; the one-ring of
+ * a triangle is every triangle sharing a vertex with it; L is the uniform
+ * Laplacian of the component and dhat(x) = L x
  * |L v| / |L x| keeps the rest Laplacian coordinates' lengths (Huang et al.
  * 2006).  Lengths in E4 are divided by h, the target's bounding-box
  * diagonal, so that the weights mean the same at any model scale (E1 and E2
