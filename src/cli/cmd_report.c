@@ -336,12 +336,14 @@ static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64
     free(s);
 }
 
-/* Method springs: the per-frame solver figures (frame_stats rows of T x
- * DTX_H5_FRAME_STATS), summed up, with the frames that did not converge
- * and the frames with the most inverted triangles. */
-static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, int64_t T)
+/* Methods springs and multicomponent (solver "Newton" or "Gauss-Newton"):
+ * the per-frame solver figures (frame_stats rows of T x DTX_H5_FRAME_STATS),
+ * summed up, with the frames that did not converge and the frames with the
+ * most inverted triangles (where the method counts them: column 2 >= 0). */
+static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, int64_t T,
+                              const char *solver)
 {
-    int64_t n = 0, iters = 0, maxit = 0, unconv = 0, inv_frames = 0;
+    int64_t n = 0, iters = 0, maxit = 0, unconv = 0, inv_frames = 0, inv_counted = 0;
     int64_t worst[WORST_N], first_unconv[WORST_N];
     int nw = 0, nu = 0;
     for (int64_t t = 0; t < T; t++) {
@@ -356,6 +358,7 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
             if (nu < WORST_N)
                 first_unconv[nu++] = t;
         }
+        inv_counted += row[2] >= 0;
         if (row[2] > 0) {
             inv_frames++;
             keep_worst(worst, &nw, t, inverted_key, fs);
@@ -363,17 +366,21 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
     }
     if (n == 0)
         return;
-    fprintf(f, "Newton solves (frame_stats): %.1f iterations per frame on average, at most %lld; "
+    fprintf(f, "%s solves (frame_stats): %.1f iterations per frame on average, at most %lld; "
                "%lld of %lld frames stopped before converging",
-            (double)iters / (double)n, (long long)maxit, (long long)unconv, (long long)n);
+            solver, (double)iters / (double)n, (long long)maxit, (long long)unconv, (long long)n);
     for (int k = 0; k < nu; k++)
-        fprintf(f, "%s%lld", k ? ", " : " (frames ", (long long)first_unconv[k]);
-    fprintf(f, "%s; %lld frames have inverted triangles.\n\n", nu ? (unconv > nu ? ", ...)" : ")")
-                                                                  : "",
-            (long long)inv_frames);
+        fprintf(f, "%s%lld", k ? ", " : (unconv == 1 ? " (frame " : " (frames "),
+                (long long)first_unconv[k]);
+    fprintf(f, "%s", nu ? (unconv > nu ? ", ...)" : ")") : "");
+    if (inv_counted > 0)
+        fprintf(f, "; %lld frames have inverted triangles.\n\n", (long long)inv_frames);
+    else
+        fprintf(f, ".\n\n");
     if (nw > 0) {
-        fprintf(f, "| frame | inverted triangles | Newton iterations | converged |\n"
-                   "|---:|---:|---:|---|\n");
+        fprintf(f, "| frame | inverted triangles | %s iterations | converged |\n"
+                   "|---:|---:|---:|---|\n",
+                solver);
         for (int k = 0; k < nw; k++) {
             const int32_t *row = fs + DTX_H5_FRAME_STATS * worst[k];
             fprintf(f, "| %lld | %d | %d | %s |\n", (long long)worst[k], (int)row[2],
@@ -470,8 +477,13 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
             goto done;
         }
+        char *method = NULL;
+        dtx_h5_read_attr_str(h, path, "method", &method, NULL);
         if ((st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err)) == DTX_OK)
-            write_frame_stats(f, fs, done, res.nframes);
+            write_frame_stats(f, fs, done, res.nframes,
+                              method && strcmp(method, "multicomponent") == 0 ? "Gauss-Newton"
+                                                                              : "Newton");
+        free(method);
         free(fs);
     }
 done:

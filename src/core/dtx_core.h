@@ -298,14 +298,22 @@ void dtx_mc_plan_info(const dtx_mc_plan *plan, dtx_mc_info *info);
 int32_t dtx_mc_plan_nv_src(const dtx_mc_plan *plan);
 int32_t dtx_mc_plan_nv_tgt(const dtx_mc_plan *plan);
 
+/* One frame's Gauss-Newton iterations. */
+typedef struct {
+    int32_t iterations; /* solves done (0 for a frame with non-finite input) */
+    int32_t converged;  /* 1 when the last step moved no vertex more than tol x
+                           the diagonal (or the problem was linear); 0 when
+                           max_iter ran out */
+} dtx_mc_frame_info;
+
 /* Apply: as dtx_sp04_apply (Xs: nframes x nv_s x 3 in, Xt: nframes x nv_t x
  * 3 out, residual: nframes or NULL, sqrt(E / npairs) of the final iterate
- * with E the whole energy, NaN for a non-finite frame), plus iterations
- * (nframes or NULL): the Gauss-Newton iterations each frame took.  OpenMP
+ * with E the whole energy, NaN for a non-finite frame), plus info (nframes
+ * or NULL): each frame's Gauss-Newton iterations.  OpenMP
  * threads take whole frames; a frame's result does not depend on the thread
  * count or the split into calls.  Fails only with DTX_ENOMEM.  Not
  * thread-safe on one plan. */
 dtx_status dtx_mc_apply(dtx_mc_plan *plan, int64_t nframes, const double *Xs, double *Xt,
-                        double *residual, int32_t *iterations, dtx_error *err);
+                        double *residual, dtx_mc_frame_info *info, dtx_error *err);
 
 #endif /* DTX_CORE_H */

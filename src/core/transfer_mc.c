@@ -112,7 +112,7 @@ typedef struct {
     const double *Xs;        /* the frame's source positions */
     double *Xt;              /* where its result goes */
     double *residual;        /* NULL or where its residual goes */
-    int32_t *iters;          /* NULL or where its iteration count goes */
+    dtx_mc_frame_info *info; /* NULL or where its solver figures go */
     int it;                  /* solves done */
     int nh, head, have_last; /* Anderson history: count, next slot, fl/gl valid */
     double e_cur;            /* energy of the current iterate */
@@ -1155,12 +1155,14 @@ static int anderson(mc_frame *fr, int nh, size_t n3, double *r)
 
 /* The frame is done (its result is fr->x): residual, vertices in no face,
  * the translation (as sp04), the output. */
-static void frame_finish(const dtx_mc_plan *p, mc_frame *fr)
+static void frame_finish(const dtx_mc_plan *p, mc_frame *fr, int converged)
 {
     const int32_t nv = p->nv_t;
     double want[3];
-    if (fr->iters)
-        *fr->iters = fr->it;
+    if (fr->info) {
+        fr->info->iterations = fr->it;
+        fr->info->converged = converged;
+    }
     if (fr->residual) {
         double e = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
         *fr->residual = sqrt((e > 0.0 ? e : 0.0) / (double)(p->npairs > 0 ? p->npairs : 1));
@@ -1202,21 +1204,21 @@ static void frame_finish(const dtx_mc_plan *p, mc_frame *fr)
  * solve, 0 when it is already done (non-finite source positions: NaN out,
  * no iteration). */
 static int frame_start(const dtx_mc_plan *p, mc_frame *fr, int64_t f, const double *Xs, double *Xt,
-                      double *residual, int32_t *iters)
+                      double *residual, dtx_mc_frame_info *info)
 {
     const int32_t nv = p->nv_t, nfree = p->nfree;
     fr->Xs = Xs + (size_t)f * 3 * p->nv_s;
     fr->Xt = Xt + (size_t)f * 3 * nv;
     fr->residual = residual ? residual + f : NULL;
-    fr->iters = iters ? iters + f : NULL;
+    fr->info = info ? info + f : NULL;
     for (int64_t i = 0; i < 3 * (int64_t)p->nv_s; i++)
         if (!isfinite(fr->Xs[i])) {
             for (int64_t k = 0; k < 3 * (int64_t)nv; k++)
                 fr->Xt[k] = NAN;
             if (fr->residual)
                 *fr->residual = NAN;
-            if (fr->iters)
-                *fr->iters = 0;
+            if (fr->info)
+                fr->info->iterations = fr->info->converged = 0;
             return 0;
         }
     fr->it = 0;
@@ -1272,7 +1274,7 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
         memcpy(fr->xf, g, n3 * sizeof *fr->xf);
         set_iterate(p, fr, fr->xf);
         if (!p->nonlinear || fr->it >= p->max_iter) {
-            frame_finish(p, fr);
+            frame_finish(p, fr, !p->nonlinear);
             return 0;
         }
         fr->e_cur = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
@@ -1294,7 +1296,7 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
     }
     if (!(move > p->tol_abs) || fr->it >= p->max_iter) {
         set_iterate(p, fr, g);
-        frame_finish(p, fr);
+        frame_finish(p, fr, !(move > p->tol_abs));
         return 0;
     }
     if (fr->have_last) {
@@ -1335,7 +1337,7 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
 }
 
 dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, double *Xt,
-                        double *residual, int32_t *iterations, dtx_error *err)
+                        double *residual, dtx_mc_frame_info *info, dtx_error *err)
 {
     dtx_status st = ensure_workers(p, err);
     if (st != DTX_OK)
@@ -1350,7 +1352,7 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
 #endif
         w = &p->workers[t];
         fr = &w->fr;
-        if (!frame_start(p, fr, f, Xs, Xt, residual, iterations))
+        if (!frame_start(p, fr, f, Xs, Xt, residual, info))
             continue;
         do {
             if (!cholmod_solve2(CHOLMOD_A, p->L, w->B, NULL, &w->X, NULL, &w->Y, &w->E,
@@ -1361,8 +1363,10 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
                     fr->Xt[i] = NAN;
                 if (fr->residual)
                     *fr->residual = NAN;
-                if (fr->iters)
-                    *fr->iters = fr->it;
+                if (fr->info) {
+                    fr->info->iterations = fr->it;
+                    fr->info->converged = 0;
+                }
                 break;
             }
             fr->g = w->X->x;

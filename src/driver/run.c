@@ -79,17 +79,17 @@ typedef struct {
     double sum, sumsq, min, max;
 } run_stats;
 
-/* Method springs: the Newton solves of a result's frames done by this run
- * (reduced onto rank 0 at the end). */
+/* Methods springs (Newton) and multicomponent (Gauss-Newton): the solves of
+ * a result's frames done by this run (reduced onto rank 0 at the end). */
 typedef struct {
-    int64_t frames, iterations;  /* frames solved, fine-level Newton steps summed */
+    int64_t frames, iterations;  /* frames solved, (fine-level) iterations summed */
     int64_t unconverged;         /* frames that stopped without meeting the test */
     int64_t first_unconverged;   /* the lowest of them, or INT64_MAX */
-    int64_t inverted_frames;     /* frames with inverted triangles */
+    int64_t inverted_frames;     /* frames with inverted triangles (springs only) */
     int64_t max_inverted;        /* most inverted triangles in a frame */
     int64_t max_inverted_frame;  /* that frame (the lowest on ties), or INT64_MAX */
     int64_t max_iterations;
-} springs_stats;
+} solve_stats;
 
 typedef enum { OUT_FRESH, OUT_RESUME, OUT_DONE } out_mode;
 
@@ -122,7 +122,7 @@ typedef struct {
     int open;
     int finished;   /* already complete in the resumed partial */
     run_stats st;
-    springs_stats sp;
+    solve_stats sv;
 } result_ctx;
 
 typedef struct {
@@ -292,14 +292,22 @@ static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
     MPI_Reduce(&mine->max, &all->max, 1, MPI_DOUBLE, MPI_MAX, 0, comm);
 }
 
-static void springs_init(springs_stats *s)
+/* Methods whose frames are iterative solves with per-frame figures
+ * (frame_stats in the output). */
+static int iterative_method(const dtx_job *job)
+{
+    return job->method == DTX_METHOD_SPRINGS || job->method == DTX_METHOD_MULTICOMPONENT;
+}
+
+static void solves_init(solve_stats *s)
 {
     memset(s, 0, sizeof *s);
     s->first_unconverged = s->max_inverted_frame = INT64_MAX;
 }
 
-/* Frame f's solve: into s, and as its frame_stats row. */
-static void springs_add(springs_stats *s, int64_t f, const dtx_springs_frame_info *in,
+/* Frame f's solve: into s, and as its frame_stats row (inverted: -1 where
+ * the method does not count them). */
+static void solves_add(solve_stats *s, int64_t f, const dtx_springs_frame_info *in,
                         int32_t row[DTX_H5_FRAME_STATS])
 {
     row[0] = in->iterations;
@@ -322,12 +330,12 @@ static void springs_add(springs_stats *s, int64_t f, const dtx_springs_frame_inf
 }
 
 /* The solves of all ranks, on rank 0. */
-static void springs_reduce(MPI_Comm comm, const springs_stats *mine, springs_stats *all)
+static void solves_reduce(MPI_Comm comm, const solve_stats *mine, solve_stats *all)
 {
     int64_t sums[4] = {mine->frames, mine->iterations, mine->unconverged, mine->inverted_frames};
     int64_t maxs[2] = {mine->max_iterations, mine->max_inverted}, sum_all[4], max_all[2];
     int64_t frame = INT64_MAX;
-    springs_init(all);
+    solves_init(all);
     MPI_Reduce(sums, sum_all, 4, MPI_INT64_T, MPI_SUM, 0, comm);
     MPI_Reduce(&mine->first_unconverged, &all->first_unconverged, 1, MPI_INT64_T, MPI_MIN, 0,
                comm);
@@ -1180,7 +1188,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
                                       tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
                                       r->align, 0, &rc->res, err);
             rc->open = st == DTX_OK;
-            if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS)
+            if (st == DTX_OK && iterative_method(&r->job))
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
         }
     }
@@ -1306,8 +1314,9 @@ static void rank_range(int64_t ntodo, int nranks, int q, int rot, int64_t *a, in
 typedef struct {
     int32_t block;         /* frames per block, a multiple of the run's align */
     double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
-    dtx_springs_frame_info *sinfo; /* method springs: block entries */
-    int32_t *fstats;       /* method springs: block x DTX_H5_FRAME_STATS */
+    dtx_springs_frame_info *sinfo; /* iterative methods: block entries */
+    dtx_mc_frame_info *minfo;      /* method multicomponent: block entries */
+    int32_t *fstats;       /* iterative methods: block x DTX_H5_FRAME_STATS */
 } frame_buffers;
 
 static void progress_step(run_state *r, int64_t n)
@@ -1386,16 +1395,27 @@ static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
 }
 
 static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
-                             double *res, dtx_springs_frame_info *sinfo, dtx_error *err)
+                             double *res, frame_buffers *fb, dtx_error *err)
 {
+    dtx_springs_frame_info *sinfo = fb->sinfo;
     if (p->springs) {
         dtx_status st = dtx_springs_apply(p->springs, n, Xs, Xt, sinfo, err);
         for (int64_t i = 0; st == DTX_OK && i < n; i++)
             res[i] = sinfo[i].residual;
         return st;
     }
-    if (p->mc)
-        return dtx_mc_apply(p->mc, n, Xs, Xt, res, NULL, err);
+    if (p->mc) {
+        /* As frame_stats rows: inverted triangles are not counted (-1). */
+        dtx_status st = dtx_mc_apply(p->mc, n, Xs, Xt, res, fb->minfo, err);
+        for (int64_t i = 0; st == DTX_OK && i < n; i++) {
+            memset(&sinfo[i], 0, sizeof sinfo[i]);
+            sinfo[i].iterations = fb->minfo[i].iterations;
+            sinfo[i].converged = fb->minfo[i].converged;
+            sinfo[i].residual = res[i];
+            sinfo[i].inverted = sinfo[i].first_inverted = -1;
+        }
+        return st;
+    }
     if (p->bh) {
         dtx_status st = dtx_bh_apply(p->bh, n, Xs, Xt, res, err);
         if (st == DTX_OK && p->recentre)
@@ -1417,7 +1437,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
     dtx_status st;
 
     stats_init(&rc->st);
-    springs_init(&rc->sp);
+    solves_init(&rc->sv);
     st = groups_todo(rc, r->align, &todo, &ntodo, &skipped, err);
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
@@ -1453,7 +1473,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
         st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
         t1 = wtime();
         if (st == DTX_OK && n > 0)
-            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, fb->sinfo, err);
+            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, fb, err);
         if (st == DTX_OK && k == nseg_max / 2)
             st = injected_fault(r, "transfer", err);
         t2 = wtime();
@@ -1471,13 +1491,13 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
                 break;
             }
             stats_add(&rc->st, fb->res[i]);
-            if (plan->springs)
-                springs_add(&rc->sp, f0 + i, &fb->sinfo[i], fb->fstats + DTX_H5_FRAME_STATS * i);
+            if (plan->springs || plan->mc)
+                solves_add(&rc->sv, f0 + i, &fb->sinfo[i], fb->fstats + DTX_H5_FRAME_STATS * i);
         }
         if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
         /* The solver figures first: dtx_h5_result_write marks frames done. */
-        if (plan->springs)
+        if (plan->springs || plan->mc)
             st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats,
                                                  r->job.collective_io, err);
         if (st == DTX_OK)
@@ -1561,24 +1581,28 @@ static dtx_status springs_plan(run_state *r, const target_ctx *tc, dtx_anchor an
     return DTX_OK;
 }
 
-/* Rank 0, method springs: how the Newton solves of result (t, s) went. */
-static void say_springs(run_state *r, int t, int s)
+/* Rank 0, methods springs and multicomponent: how the (Gauss-)Newton solves
+ * of result (t, s) went. */
+static void say_solves(run_state *r, int t, int s)
 {
-    const springs_stats *sp = &RESULT(r, t, s)->sp;
+    const solve_stats *sp = &RESULT(r, t, s)->sv;
     char more[400] = "";
     if (sp->frames == 0)
         return;
     if (sp->unconverged > 0)
-        snprintf(more, sizeof more, "; %lld frames stopped before converging (the first: frame "
-                                    "%lld)",
-                 (long long)sp->unconverged, (long long)sp->first_unconverged);
+        snprintf(more, sizeof more, "; %lld frame%s stopped before converging (the first: "
+                                    "frame %lld)",
+                 (long long)sp->unconverged, sp->unconverged == 1 ? "" : "s",
+                 (long long)sp->first_unconverged);
     if (sp->inverted_frames > 0)
         snprintf(more + strlen(more), sizeof more - strlen(more),
                  "; %lld frames have inverted triangles (most: %lld in frame %lld)",
                  (long long)sp->inverted_frames, (long long)sp->max_inverted,
                  (long long)sp->max_inverted_frame);
-    say(r, "dtx: result %s/%s: Newton %.1f iterations per frame (at most %lld)%s%s",
-        r->tg[t].tj->name, r->sq[s].name, (double)sp->iterations / (double)sp->frames,
+    say(r, "dtx: result %s/%s: %s %.1f iterations per frame (at most %lld)%s%s",
+        r->tg[t].tj->name, r->sq[s].name,
+        r->job.method == DTX_METHOD_MULTICOMPONENT ? "Gauss-Newton" : "Newton",
+        (double)sp->iterations / (double)sp->frames,
         (long long)sp->max_iterations, more,
         sp->unconverged || sp->inverted_frames ? " (per frame: frame_stats in the output)" : "");
 }
@@ -1630,12 +1654,15 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
     fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
-    if (r->job.method == DTX_METHOD_SPRINGS) {
+    if (iterative_method(&r->job)) {
         fb.sinfo = dtx_alloc((size_t)fb.block, sizeof *fb.sinfo, 1);
         fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
     }
+    if (r->job.method == DTX_METHOD_MULTICOMPONENT)
+        fb.minfo = dtx_alloc((size_t)fb.block, sizeof *fb.minfo, 1);
     st = fb.Xs && fb.Xt && fb.res &&
-                 (r->job.method != DTX_METHOD_SPRINGS || (fb.sinfo && fb.fstats))
+                 (!iterative_method(&r->job) || (fb.sinfo && fb.fstats)) &&
+                 (r->job.method != DTX_METHOD_MULTICOMPONENT || fb.minfo)
              ? DTX_OK
              : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
     if ((st = agree(r->comm, st, err)) != DTX_OK)
@@ -1681,6 +1708,16 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             mp.tol = r->job.mc.tol;
             st = dtx_mc_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, &mp,
                                     anchor, pin_idx, pin_pos, tj->npins, &plan.mc, err);
+            if (st == DTX_OK) {
+                dtx_mc_info info;
+                dtx_mc_plan_info(plan.mc, &info);
+                say(r,
+                    "dtx: target %s: %d components, %d proximity edges with %lld vertex pairs, "
+                    "%d orphan triangles, %d orphan components",
+                    tj->name, (int)info.components, (int)info.proximity_edges,
+                    (long long)info.proximity_pairs, (int)info.orphan_triangles,
+                    (int)info.orphan_components);
+            }
         } else if (r->job.method == DTX_METHOD_BIHARMONIC) {
             st = bh_plan(r, tc, &plan, err);
         } else if (r->job.method == DTX_METHOD_SPRINGS) {
@@ -1711,6 +1748,7 @@ done:
     free(fb.Xt);
     free(fb.res);
     free(fb.sinfo);
+    free(fb.minfo);
     free(fb.fstats);
     return st;
 }
@@ -1854,15 +1892,21 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
             json_str(f, r->sq[s].path);
             fprintf(f, ", \"frames\": %lld, \"residual\": ", (long long)rc->st.frames);
             json_stats(f, &rc->st);
-            if (r->job.method == DTX_METHOD_SPRINGS && rc->sp.frames > 0)
+            if (r->job.method == DTX_METHOD_MULTICOMPONENT && rc->sv.frames > 0)
+                fprintf(f,
+                        ", \"multicomponent\": {\"gauss_newton_iterations_mean\": %.4g, "
+                        "\"gauss_newton_iterations_max\": %lld, \"unconverged_frames\": %lld}",
+                        (double)rc->sv.iterations / (double)rc->sv.frames,
+                        (long long)rc->sv.max_iterations, (long long)rc->sv.unconverged);
+            if (r->job.method == DTX_METHOD_SPRINGS && rc->sv.frames > 0)
                 fprintf(f,
                         ", \"springs\": {\"newton_iterations_mean\": %.4g, "
                         "\"newton_iterations_max\": %lld, \"unconverged_frames\": %lld, "
                         "\"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": "
                         "%lld}",
-                        (double)rc->sp.iterations / (double)rc->sp.frames,
-                        (long long)rc->sp.max_iterations, (long long)rc->sp.unconverged,
-                        (long long)rc->sp.inverted_frames, (long long)rc->sp.max_inverted);
+                        (double)rc->sv.iterations / (double)rc->sv.frames,
+                        (long long)rc->sv.max_iterations, (long long)rc->sv.unconverged,
+                        (long long)rc->sv.inverted_frames, (long long)rc->sv.max_inverted);
             fputc('}', f);
         }
     fprintf(f, "\n  ]\n}\n");
@@ -2030,12 +2074,12 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             stats_reduce(comm, &RESULT(&r, t, s)->st, &all);
             if (r.rank == 0)
                 RESULT(&r, t, s)->st = all;
-            if (r.job.method == DTX_METHOD_SPRINGS) {
-                springs_stats sp;
-                springs_reduce(comm, &RESULT(&r, t, s)->sp, &sp);
+            if (iterative_method(&r.job)) {
+                solve_stats sv;
+                solves_reduce(comm, &RESULT(&r, t, s)->sv, &sv);
                 if (r.rank == 0)
-                    RESULT(&r, t, s)->sp = sp;
-                say_springs(&r, t, s);
+                    RESULT(&r, t, s)->sv = sv;
+                say_solves(&r, t, s);
             }
         }
     summarise(&r);

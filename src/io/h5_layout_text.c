@@ -203,7 +203,7 @@ static const char *const lines[] = {
     "        \"frame_done\": { \"required\": true, \"dtype\": \"uint\", \"sizes\": [1], \"dims\": [\"T\"],\n",
     "                        \"doc\": \"1 once the frame is written completely\" },\n",
     "        \"frame_stats\": { \"required\": false, \"dtype\": \"int\", \"sizes\": [4], \"dims\": [\"T\", 3],\n",
-    "                         \"doc\": \"method springs: per frame, Newton iterations, converged (0/1) and inverted triangles; -1 until written; attribute columns names them\" }\n",
+    "                         \"doc\": \"methods springs and multicomponent: per frame, (Gauss-)Newton iterations, converged (0/1) and inverted triangles (-1: not counted, multicomponent); -1 until written; attribute columns names them\" }\n",
     "      },\n",
     "      \"attributes\": {\n",
     "        \"method\": { \"type\": \"string\", \"required\": true },\n",

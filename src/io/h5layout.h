@@ -446,12 +446,13 @@ dtx_status dtx_h5_result_write(dtx_h5_result *res, int64_t first, int64_t count,
                                const double *positions, const double *residual, int collective,
                                dtx_error *err);
 
-/* Optional per-frame solver figures of a result (method springs): the
- * dataset frame_stats, int32 T x DTX_H5_FRAME_STATS, fill -1 (not yet
- * written), columns in this order (also in its attribute "columns"):
- * iterations (Newton steps on the mesh itself), converged (1 when the
- * solve met its stopping test, 0 when it ran out of iterations), inverted
- * (triangles of the result turned over against the source's rotation). */
+/* Optional per-frame solver figures of a result (methods springs and
+ * multicomponent): the dataset frame_stats, int32 T x DTX_H5_FRAME_STATS,
+ * fill -1 (not yet written), columns in this order (also in its attribute
+ * "columns"): iterations (Newton steps on the mesh itself, or Gauss-Newton
+ * solves), converged (1 when the solve met its stopping test, 0 when it ran
+ * out of iterations), inverted (triangles of the result turned over against
+ * the source's rotation; -1 where the method does not count them). */
 #define DTX_H5_FRAME_STATS 3
 #define DTX_H5_FRAME_STATS_COLUMNS "iterations converged inverted"
 

@@ -334,7 +334,7 @@ int main(int argc, char **argv)
     double t0, c0, t_gen, t_corr, c_corr, t_prox, t_tri, t_plan, diag;
     double frame_s[MAX_THREAD_RUNS], frame_cpu[MAX_THREAD_RUNS];
     double *Xs, *Xt[MAX_THREAD_RUNS], *res;
-    int32_t *iters;
+    dtx_mc_frame_info *iters;
     int nf, max_threads;
     int identical = 1;
     int32_t *tri;
@@ -437,8 +437,14 @@ int main(int argc, char **argv)
                "%.2f frames/s)\n",
                o.threads[r], frame_s[r], frame_cpu[r], 1.0 / frame_s[r]);
         for (int f = 0; f < nf; f++)
-            it[f] = iters[f];
+            it[f] = iters[f].iterations;
         summary3("Gauss-Newton iterations per frame", it, nf, 1.0, "");
+        {
+            int nconv = 0;
+            for (int f = 0; f < nf; f++)
+                nconv += iters[f].converged;
+            printf("  frames that met tol                %d of %d\n", nconv, nf);
+        }
         for (int f = 0; f < nf; f++)
             it[f] = res[f];
         summary3("residual sqrt(E / pairs)", it, nf, 1.0, "");

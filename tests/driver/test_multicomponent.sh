@@ -54,6 +54,28 @@ done
 check "result file validates" "$DTX" validate "$W/np2.h5"
 check "summary counts 27 frames" grep -q '"frames": 27' "$W/np2.h5.summary.json"
 check "provenance names the method" bash -c "h5dump -a /results/pebble-lion/cat-poses/method '$W/np2.h5' 2>/dev/null | grep -q multicomponent || strings '$W/np2.h5' | grep -q '\"method\":\"multicomponent\"'"
+# The Gauss-Newton figures: per frame in frame_stats (iterations within
+# max_iter 30, converged 0/1 and only short of 30 when 1, inverted not
+# counted: -1), the same at 1 and 2 ranks, summed up in the log, the
+# summary and the report.
+stats() { # stats FILE TARGET: the rows of frame_stats, "iterations converged inverted"
+    h5dump -d "/results/$2/cat-poses/frame_stats" "$1" | grep -E '^ *\([0-9]+,0\):' |
+        tr -d '(),:' | awk '{print $2, $3, $4}'
+}
+stats_ok() {
+    stats "$1" "$2" | awk '$1 < 1 || $1 > 30 || ($2 != 0 && $2 != 1) || ($2 == 0 && $1 != 30) || $3 != -1 {bad = 1}
+                           END {exit bad}'
+}
+for t in pebble-lion lion-garment lion-eyes; do
+    check "$t: frame_stats has 9 rows" test "$(stats "$W/np2.h5" $t | wc -l)" -eq 9
+    check "$t: frame_stats rows are solver figures" stats_ok "$W/np2.h5" $t
+    check "$t: frame_stats the same at 1 and 2 ranks" cmp <(stats "$W/np1.h5" $t) <(stats "$W/np2.h5" $t)
+done
+check "log: the proximity graph of each target" grep -q 'target pebble-lion: 2[0-9][0-9] components, [0-9]* proximity edges with [0-9]* vertex pairs' "$W/np2.log"
+check "log: Gauss-Newton iterations per result" grep -q 'result lion-eyes/cat-poses: Gauss-Newton [0-9.]* iterations per frame' "$W/np2.log"
+check "summary: Gauss-Newton figures per result" test "$(grep -c '"multicomponent": {"gauss_newton_iterations_mean"' "$W/np2.h5.summary.json")" -eq 3
+check "report written" "$DTX" report "$W/np2.h5"
+check "report: the Gauss-Newton solves of each result" test "$(grep -c '^Gauss-Newton solves (frame_stats): ' "$W/np2.report.md")" -eq 3
 check "contact sheet renders" "$DTX" render "$W/np2.h5" /results/pebble-lion/cat-poses -o "$W/pebble-lion.png" --count 4
 check "contact sheet written" test -s "$W/pebble-lion.png"
 
