@@ -45,7 +45,6 @@
 #include <omp.h>
 #include <stdlib.h>
 #include <string.h>
-#include <stdio.h>
 
 enum { FREE = 0, AT_LO = 1, AT_HI = 2, HANDLE = 3 };
 
@@ -70,10 +69,6 @@ typedef struct {
     cholmod_dense *X, *Y, *E; /* cholmod_solve2's result and workspace, reused */
     int32_t *idx;             /* nv: index among the free vertices, -1 if fixed */
     int32_t *fvert;           /* nv: vertex of each free index */
-    int32_t *order;           /* nv: vertices in the previous factor's order */
-    int32_t norder;           /* their number, 0 if none */
-    int32_t *fperm;           /* nv: the ordering given to CHOLMOD */
-    int32_t since;            /* solves since the last fresh ordering */
     unsigned char *state;     /* nv: FREE, AT_LO, AT_HI, HANDLE */
     double *x;                /* nv: the iterate */
     double *b;                /* nv: right-hand side on the free vertices */
@@ -92,8 +87,6 @@ static void ws_free(thread_ws *w)
     }
     free(w->idx);
     free(w->fvert);
-    free(w->order);
-    free(w->fperm);
     free(w->state);
     free(w->x);
     free(w->b);
@@ -109,47 +102,12 @@ static int ws_alloc(thread_ws *w, int32_t nv)
     w->started = 1;
     w->idx = dtx_alloc((size_t)nv, sizeof *w->idx, 0);
     w->fvert = dtx_alloc((size_t)nv, sizeof *w->fvert, 0);
-    w->order = dtx_alloc((size_t)nv, sizeof *w->order, 0);
-    w->fperm = dtx_alloc((size_t)nv, sizeof *w->fperm, 0);
     w->state = dtx_alloc((size_t)nv, 1, 0);
     w->x = dtx_alloc((size_t)nv, sizeof *w->x, 0);
     w->b = dtx_alloc((size_t)nv, sizeof *w->b, 0);
     w->expanded = dtx_alloc((size_t)nv, 1, 0);
     w->mark = dtx_alloc((size_t)nv, 1, 0);
-    return w->idx && w->fvert && w->order && w->fperm && w->state && w->x && w->b && w->expanded && w->mark;
-}
-
-#ifndef REUSE_MAX
-#define REUSE_MAX 1000000
-#endif
-#ifndef REUSE_NEW
-#define REUSE_NEW 10
-#endif
-/* dtx__factor with the ordering perm, NULL for cc's. */
-static cholmod_factor *factor_p(cholmod_sparse *A, int32_t *perm, cholmod_common *cc,
-                                dtx_error *err)
-{
-    static const char what[] = "bounded biharmonic weights";
-    cholmod_factor *L = cholmod_analyze_p(A, perm, NULL, 0, cc);
-    if (!L) {
-        dtx_seterr(err, DTX_ENOMEM, "%s: out of memory analysing a %d x %d system", what,
-                   (int)A->nrow, (int)A->nrow);
-        return NULL;
-    }
-    if (!cholmod_factorize(A, L, cc) || cc->status != CHOLMOD_OK) {
-        int status = cc->status;
-        cholmod_free_factor(&L, cc);
-        if (status == CHOLMOD_OUT_OF_MEMORY)
-            dtx_seterr(err, DTX_ENOMEM, "%s: out of memory factoring a %d x %d system", what,
-                       (int)A->nrow, (int)A->nrow);
-        else
-            dtx_seterr(err, DTX_ESOLVE,
-                       "%s: the %d x %d biharmonic system could not be factored (CHOLMOD "
-                       "status %d); the mesh may have degenerate triangles",
-                       what, (int)A->nrow, (int)A->nrow, status);
-        return NULL;
-    }
-    return L;
+    return w->idx && w->fvert && w->state && w->x && w->b && w->expanded && w->mark;
 }
 
 /* Solves for x on the FREE vertices with every other vertex held at its
@@ -184,41 +142,7 @@ static dtx_status solve_free(const dtx_csr *Q, int32_t nv, thread_ws *w)
     if (!A)
         return dtx_seterr(&w->err, DTX_ENOMEM, "bounded biharmonic weights: out of memory for "
                           "a %d x %d system", (int)nfree, (int)nfree);
-    {
-        int reuse = w->norder > 0 && w->since < REUSE_MAX;
-        int32_t n = 0, nold = 0;
-        if (reuse) {
-            /* mark[] is clear here: mark the previous order's vertices. */
-            for (int32_t p = 0; p < w->norder; p++)
-                w->mark[w->order[p]] = 1;
-            for (int32_t k = 0; k < nfree; k++)
-                if (!w->mark[w->fvert[k]])
-                    w->fperm[n++] = k;
-            for (int32_t p = 0; p < w->norder; p++) {
-                int32_t v = w->order[p];
-                w->mark[v] = 0;
-                if (w->idx[v] >= 0)
-                    w->fperm[n++] = w->idx[v], nold++;
-            }
-            reuse = n - nold <= nfree / REUSE_NEW;
-        }
-        if (reuse) {
-            w->cc.nmethods = 1;
-            w->cc.method[0].ordering = CHOLMOD_GIVEN;
-            L = factor_p(A, w->fperm, &w->cc, &w->err);
-            w->since++;
-        } else {
-            w->cc.method[0].ordering = CHOLMOD_AMD;
-            L = factor_p(A, NULL, &w->cc, &w->err);
-            w->since = 0;
-        }
-        if (L) {
-            for (int32_t p = 0; p < nfree; p++)
-                w->order[p] = w->fvert[((const int32_t *)L->Perm)[p]];
-            w->norder = nfree;
-            if (getenv("BBW_TRACE")) fprintf(stderr, "TR nfree %d new %d reuse %d lnz %.0f fl %.3g\n", (int)nfree, (int)(n-nold), reuse, w->cc.lnz, w->cc.fl);
-        }
-    }
+    L = dtx__factor(A, &w->cc, "bounded biharmonic weights", &w->err);
     if (!L) {
         st = w->err.code;
         goto done;
@@ -262,7 +186,6 @@ static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *hand
         w->state[handles[j]] = HANDLE;
     w->x[handles[k]] = 1.0;
     *converged = 0;
-    w->norder = 0;
     for (it = 1; it <= max_iter; it++) {
         int32_t changed = 0;
         st = solve_free(Q, nv, w);
