@@ -35,145 +35,26 @@
  * relative change of the proximity-pair lengths.  The machine is shared:
  * compare CPU seconds, or runs made one after the other.
  */
+#include "bench_data.h"
 #include "dtx_core.h"
 #include "generate.h"
-#include "meshfile.h"
 #include "proximity.h"
 
-#include <dirent.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define PAPER_CORR_S 54.56
 #define PAPER_FRAME_S 14.72
 #define MAX_THREAD_RUNS 8
 
 typedef struct {
-    char src_name[256], tgt_name[256];
-    dtx_mesh src, tgt;
-    dtx_markers mk;
-    int nposes;
-    double *poses; /* nposes x nv_s x 3 */
-} dataset;
-
-typedef struct {
     int pieces, subdivide, frames, check, max_iter;
     double gap, thickness, eps, tol;
     int nthreads, threads[MAX_THREAD_RUNS];
 } options;
-
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
-        return 0.0;
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void die(const dtx_error *e)
-{
-    fprintf(stderr, "dtx_bench_mc: %s\n", e->msg);
-    exit(1);
-}
-
-static void die_msg(const char *what, const char *path)
-{
-    fprintf(stderr, "dtx_bench_mc: %s: %s\n", path, what);
-    exit(1);
-}
-
-static void *xmalloc(size_t n, size_t size)
-{
-    void *p = dtx_alloc(n, size, 0);
-    if (!p) {
-        fprintf(stderr, "dtx_bench_mc: out of memory (%zu x %zu bytes)\n", n, size);
-        exit(1);
-    }
-    return p;
-}
-
-static void load(const char *path, dtx_mesh *m)
-{
-    dtx_error e;
-    if (dtx_obj_read(path, m, NULL, &e) != DTX_OK)
-        die(&e);
-}
-
-/* The name before "-reference.obj" of the one such file in dir/sub. */
-static void find_reference(const char *dir, const char *sub, char *name, size_t size)
-{
-    static const char suffix[] = "-reference.obj";
-    char path[1200];
-    DIR *d;
-    struct dirent *ent;
-    int found = 0;
-    snprintf(path, sizeof path, "%s/%s", dir, sub);
-    d = opendir(path);
-    if (!d)
-        die_msg("cannot open the directory", path);
-    while ((ent = readdir(d)) != NULL) {
-        size_t n = strlen(ent->d_name), ns = sizeof suffix - 1;
-        if (n > ns && n - ns < size && strcmp(ent->d_name + n - ns, suffix) == 0) {
-            if (found++)
-                die_msg("more than one *-reference.obj", path);
-            memcpy(name, ent->d_name, n - ns);
-            name[n - ns] = '\0';
-        }
-    }
-    closedir(d);
-    if (!found)
-        die_msg("no *-reference.obj", path);
-}
-
-static void load_dataset(const char *dir, dataset *ds)
-{
-    char path[1600];
-    dtx_error e;
-    memset(ds, 0, sizeof *ds);
-    find_reference(dir, "source", ds->src_name, sizeof ds->src_name);
-    find_reference(dir, "target", ds->tgt_name, sizeof ds->tgt_name);
-    snprintf(path, sizeof path, "%s/source/%s-reference.obj", dir, ds->src_name);
-    load(path, &ds->src);
-    snprintf(path, sizeof path, "%s/target/%s-reference.obj", dir, ds->tgt_name);
-    load(path, &ds->tgt);
-    snprintf(path, sizeof path, "%s/markers.csv", dir);
-    if (dtx_markers_read_csv(path, 0, &ds->mk, &e) != DTX_OK)
-        die(&e);
-    for (;;) {
-        FILE *f;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, ds->nposes + 1);
-        if (!(f = fopen(path, "r")))
-            break;
-        fclose(f);
-        ds->nposes++;
-    }
-    if (ds->nposes == 0) {
-        snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
-        die_msg("no numbered poses (expected this file and following ones)", path);
-    }
-    ds->poses = xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
-    for (int k = 0; k < ds->nposes; k++) {
-        dtx_mesh m;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
-        load(path, &m);
-        if (m.nv != ds->src.nv)
-            die_msg("vertex count differs from the reference", path);
-        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
-        dtx_mesh_free(&m);
-    }
-}
-
-static void free_dataset(dataset *ds)
-{
-    dtx_mesh_free(&ds->src);
-    dtx_mesh_free(&ds->tgt);
-    dtx_markers_free(&ds->mk);
-    free(ds->poses);
-}
 
 static int cmp_dbl(const void *x, const void *y)
 {
@@ -229,21 +110,6 @@ static double median_pair_change(const dtx_proximity *prox, const double *x, dou
     }
     qsort(scratch, (size_t)prox->npairs, sizeof *scratch, cmp_dbl);
     return scratch[prox->npairs / 2];
-}
-
-static void summary3(const char *what, const double *v, int n, double scale, const char *unit)
-{
-    double lo, hi, s = 0.0;
-    if (n < 1)
-        return;
-    lo = hi = v[0];
-    for (int i = 0; i < n; i++) {
-        lo = v[i] < lo ? v[i] : lo;
-        hi = v[i] > hi ? v[i] : hi;
-        s += v[i];
-    }
-    printf("  %-34s min %.3f  mean %.3f  max %.3f %s\n", what, scale * lo, scale * s / n,
-           scale * hi, unit);
 }
 
 static void usage(void)
@@ -320,7 +186,7 @@ static void parse(int argc, char **argv, options *o)
 int main(int argc, char **argv)
 {
     options o;
-    dataset ds;
+    bench_dataset ds;
     dtx_mesh peb = {0};
     int32_t *map = NULL, bad;
     dtx_markers pm = {0};
@@ -339,6 +205,7 @@ int main(int argc, char **argv)
     int identical = 1;
     int32_t *tri;
 
+    bench_set_name("dtx_bench_mc");
     if (argc < 2 || argv[1][0] == '-')
         usage();
     parse(argc, argv, &o);
@@ -350,21 +217,21 @@ int main(int argc, char **argv)
     if (o.tol >= 0.0)
         prm.tol = o.tol;
     max_threads = omp_get_max_threads();
-    load_dataset(argv[1], &ds);
+    bench_load_dataset(argv[1], &ds);
     nf = o.frames > 0 ? o.frames : ds.nposes;
 
     /* The shattered target and its markers. */
     t0 = omp_get_wtime();
     if (dtx_gen_pebbles(&ds.tgt, o.pieces, o.gap, o.thickness, o.subdivide, &peb, &map, &e) !=
         DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_gen = omp_get_wtime() - t0;
     if (dtx_markers_alloc(&pm, ds.mk.n, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     memcpy(pm.src, ds.mk.src, (size_t)ds.mk.n * sizeof *pm.src);
     memcpy(pm.tgt, ds.mk.tgt, (size_t)ds.mk.n * sizeof *pm.tgt);
     if (dtx_gen_remap(map, peb.nv, ds.tgt.nv, pm.n, pm.tgt, &bad, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     diag = dtx_bbox_diagonal(peb.V, peb.nv);
 
     printf("%s -> pebble %s: %d pieces, gap %g, thickness %g, subdivide %d, eps %g, max_iter %d, "
@@ -382,23 +249,23 @@ int main(int argc, char **argv)
      * rounding). */
     t0 = omp_get_wtime();
     if (dtx_proximity_build(&peb, o.eps, &prox, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_prox = omp_get_wtime() - t0;
-    tri = xmalloc((size_t)prox.npairs + 1, 2 * sizeof *tri);
+    tri = bench_xmalloc((size_t)prox.npairs + 1, 2 * sizeof *tri);
     t0 = omp_get_wtime();
     if (dtx_proximity_triangle_pairs(&peb, &prox, tri, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_tri = omp_get_wtime() - t0;
     free(tri);
     printf("  components %d, proximity edges %d, proximity pairs %lld\n", (int)prox.ncomp,
            (int)prox.nedges, (long long)prox.npairs);
 
     t0 = omp_get_wtime();
-    c0 = cpu_seconds();
+    c0 = bench_cpu_seconds();
     if (dtx_mc_correspond(&ds.src, &peb, &pm, &cp, o.eps, &corr, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_corr = omp_get_wtime() - t0;
-    c_corr = cpu_seconds() - c0;
+    c_corr = bench_cpu_seconds() - c0;
     printf("  correspondence          %8.3f s  (%d threads; CPU %.3f s; %d solves; %lld pairs, "
            "%d orphan triangles, fit %.3g%% of the diagonal)\n",
            t_corr, max_threads, c_corr, corr.solves, (long long)corr.npairs,
@@ -409,36 +276,36 @@ int main(int argc, char **argv)
     t0 = omp_get_wtime();
     if (dtx_mc_plan_create(&ds.src, &peb, corr.pairs, corr.npairs, &prm, DTX_ANCHOR_FIXED, NULL,
                            NULL, 0, &plan, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_plan = omp_get_wtime() - t0;
     dtx_mc_plan_info(plan, &info);
     printf("  plan                    %8.3f s  (factorisation %.3f s); %d orphan triangles, "
            "%d orphan components\n",
            t_plan, info.factor_seconds, (int)info.orphan_triangles, (int)info.orphan_components);
 
-    Xs = xmalloc((size_t)nf, 3 * (size_t)ds.src.nv * sizeof *Xs);
+    Xs = bench_xmalloc((size_t)nf, 3 * (size_t)ds.src.nv * sizeof *Xs);
     for (int f = 0; f < nf; f++)
         memcpy(Xs + (size_t)f * 3 * ds.src.nv, ds.poses + (size_t)(f % ds.nposes) * 3 * ds.src.nv,
                3 * (size_t)ds.src.nv * sizeof *Xs);
-    res = xmalloc((size_t)nf, sizeof *res);
-    iters = xmalloc((size_t)nf, sizeof *iters);
+    res = bench_xmalloc((size_t)nf, sizeof *res);
+    iters = bench_xmalloc((size_t)nf, sizeof *iters);
     for (int r = 0; r < o.nthreads; r++) {
-        double *it = xmalloc((size_t)nf, sizeof *it);
-        Xt[r] = xmalloc((size_t)nf, 3 * (size_t)peb.nv * sizeof **Xt);
+        double *it = bench_xmalloc((size_t)nf, sizeof *it);
+        Xt[r] = bench_xmalloc((size_t)nf, 3 * (size_t)peb.nv * sizeof **Xt);
         memset(Xt[r], 0, (size_t)nf * 3 * peb.nv * sizeof **Xt);
         omp_set_num_threads(o.threads[r]);
         t0 = omp_get_wtime();
-        c0 = cpu_seconds();
+        c0 = bench_cpu_seconds();
         if (dtx_mc_apply(plan, nf, Xs, Xt[r], res, iters, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         frame_s[r] = (omp_get_wtime() - t0) / nf;
-        frame_cpu[r] = (cpu_seconds() - c0) / nf;
+        frame_cpu[r] = (bench_cpu_seconds() - c0) / nf;
         printf("  transfer, %d thread(s)    %8.3f s per frame  (CPU %.3f s per frame; "
                "%.2f frames/s)\n",
                o.threads[r], frame_s[r], frame_cpu[r], 1.0 / frame_s[r]);
         for (int f = 0; f < nf; f++)
             it[f] = iters[f].iterations;
-        summary3("Gauss-Newton iterations per frame", it, nf, 1.0, "");
+        bench_summary3(BENCH_SUMMARY_F3, "Gauss-Newton iterations per frame", it, nf, 1.0, "");
         {
             int nconv = 0;
             for (int f = 0; f < nf; f++)
@@ -447,7 +314,7 @@ int main(int argc, char **argv)
         }
         for (int f = 0; f < nf; f++)
             it[f] = res[f];
-        summary3("residual sqrt(E / pairs)", it, nf, 1.0, "");
+        bench_summary3(BENCH_SUMMARY_F3, "residual sqrt(E / pairs)", it, nf, 1.0, "");
         free(it);
         if (r > 0 && memcmp(Xt[r], Xt[0], (size_t)nf * 3 * peb.nv * sizeof **Xt) != 0)
             identical = 0;
@@ -466,24 +333,26 @@ int main(int argc, char **argv)
         /* sp04 on the unbroken target, each pebble vertex against its
          * original vertex. */
         dtx_sp04_plan *sp = NULL;
-        double *Yt = xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *Yt);
-        double *scratch = xmalloc((size_t)prox.npairs + 1, sizeof *scratch);
-        double *rms = xmalloc((size_t)nf, sizeof *rms), *med = xmalloc((size_t)nf, sizeof *med);
+        double *Yt = bench_xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *Yt);
+        double *scratch = bench_xmalloc((size_t)prox.npairs + 1, sizeof *scratch);
+        double *rms = bench_xmalloc((size_t)nf, sizeof *rms),
+               *med = bench_xmalloc((size_t)nf, sizeof *med);
         if (dtx_sp04_correspond(&ds.src, &ds.tgt, &ds.mk, &cp, &scorr, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         if (dtx_sp04_plan_create(&ds.src, &ds.tgt, scorr.pairs, scorr.npairs, DTX_ANCHOR_FIXED,
                                  NULL, NULL, 0, &sp, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         if (dtx_sp04_apply(sp, nf, Xs, Yt, NULL, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         for (int f = 0; f < nf; f++) {
             rms[f] = rms_mapped(Xt[0] + (size_t)f * 3 * peb.nv, peb.nv,
                                 Yt + (size_t)f * 3 * ds.tgt.nv, map, diag);
             med[f] = median_pair_change(&prox, Xt[0] + (size_t)f * 3 * peb.nv, scratch);
         }
         printf("  check against sp04 on the unbroken %s (same markers), per frame:\n", ds.tgt_name);
-        summary3("RMS pebble vertex - sp04 vertex", rms, nf, 100.0, "% of the diagonal");
-        summary3("median proximity-pair change", med, nf, 100.0, "%");
+        bench_summary3(BENCH_SUMMARY_F3, "RMS pebble vertex - sp04 vertex", rms, nf, 100.0,
+                       "% of the diagonal");
+        bench_summary3(BENCH_SUMMARY_F3, "median proximity-pair change", med, nf, 100.0, "%");
         {
             double w = 0.0;
             int wf = 0;
@@ -514,6 +383,6 @@ int main(int argc, char **argv)
     dtx_markers_free(&pm);
     dtx_mesh_free(&peb);
     free(map);
-    free_dataset(&ds);
+    bench_free_dataset(&ds);
     return 0;
 }

@@ -19,145 +19,20 @@
  * -02.obj, ..., target/<tgt>-reference.obj and markers.csv (0-based), as
  * the bundled sumner-cat-lion and sumner-horse-camel sets do.
  */
+#include "bench_data.h"
 #include "dtx_core.h"
 #include "h5layout.h"
-#include "meshfile.h"
 
-#include <dirent.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 /* Frames held in memory by the sp04 benchmark; longer runs repeat them. */
 #define BENCH_BLOCK 512
 
-typedef struct {
-    char dir[1024];
-    char src_name[256], tgt_name[256]; /* "cat", "lion" */
-    dtx_mesh src, tgt;
-    dtx_markers mk;
-    int nposes;
-    double *poses; /* nposes x nv_s x 3 */
-} dataset;
-
-/* CPU seconds of the whole process (all threads): unlike the wall clock,
- * not inflated when other jobs share the cores. */
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
-        return 0.0;
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void die(const dtx_error *e)
-{
-    fprintf(stderr, "dtx_bench: %s\n", e->msg);
-    exit(1);
-}
-
-static void die_msg(const char *what, const char *path)
-{
-    fprintf(stderr, "dtx_bench: %s: %s\n", path, what);
-    exit(1);
-}
-
-static void *xmalloc(size_t n, size_t size)
-{
-    void *p = dtx_alloc(n, size, 0);
-    if (!p) {
-        fprintf(stderr, "dtx_bench: out of memory (%zu x %zu bytes)\n", n, size);
-        exit(1);
-    }
-    return p;
-}
-
-static void load(const char *path, dtx_mesh *m)
-{
-    dtx_error e;
-    if (dtx_obj_read(path, m, NULL, &e) != DTX_OK)
-        die(&e);
-}
-
-/* The name before "-reference.obj" of the one such file in dir/sub. */
-static void find_reference(const char *dir, const char *sub, char *name, size_t size)
-{
-    static const char suffix[] = "-reference.obj";
-    char path[1200];
-    DIR *d;
-    struct dirent *ent;
-    int found = 0;
-    snprintf(path, sizeof path, "%s/%s", dir, sub);
-    d = opendir(path);
-    if (!d)
-        die_msg("cannot open the directory", path);
-    while ((ent = readdir(d)) != NULL) {
-        size_t n = strlen(ent->d_name), ns = sizeof suffix - 1;
-        if (n > ns && n - ns < size && strcmp(ent->d_name + n - ns, suffix) == 0) {
-            if (found++)
-                die_msg("more than one *-reference.obj", path);
-            memcpy(name, ent->d_name, n - ns);
-            name[n - ns] = '\0';
-        }
-    }
-    closedir(d);
-    if (!found)
-        die_msg("no *-reference.obj", path);
-}
-
-/* Loads the rest meshes, the markers and the numbered poses <src>-01.obj,
- * -02.obj, ... (as many as exist in a row). */
-static void load_dataset(const char *dir, dataset *ds)
-{
-    char path[1600];
-    dtx_error e;
-    memset(ds, 0, sizeof *ds);
-    snprintf(ds->dir, sizeof ds->dir, "%s", dir);
-    find_reference(dir, "source", ds->src_name, sizeof ds->src_name);
-    find_reference(dir, "target", ds->tgt_name, sizeof ds->tgt_name);
-    snprintf(path, sizeof path, "%s/source/%s-reference.obj", dir, ds->src_name);
-    load(path, &ds->src);
-    snprintf(path, sizeof path, "%s/target/%s-reference.obj", dir, ds->tgt_name);
-    load(path, &ds->tgt);
-    snprintf(path, sizeof path, "%s/markers.csv", dir);
-    if (dtx_markers_read_csv(path, 0, &ds->mk, &e) != DTX_OK)
-        die(&e);
-    for (;;) {
-        FILE *f;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, ds->nposes + 1);
-        if (!(f = fopen(path, "r")))
-            break;
-        fclose(f);
-        ds->nposes++;
-    }
-    if (ds->nposes == 0) {
-        snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
-        die_msg("no numbered poses (expected this file and following ones)", path);
-    }
-    ds->poses = xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
-    for (int k = 0; k < ds->nposes; k++) {
-        dtx_mesh m;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
-        load(path, &m);
-        if (m.nv != ds->src.nv)
-            die_msg("vertex count differs from the reference", path);
-        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
-        dtx_mesh_free(&m);
-    }
-}
-
-static void free_dataset(dataset *ds)
-{
-    dtx_mesh_free(&ds->src);
-    dtx_mesh_free(&ds->tgt);
-    dtx_markers_free(&ds->mk);
-    free(ds->poses);
-}
-
 /* Frame t of the long sequence: a smooth blend of two consecutive poses. */
-static void blend(const dataset *ds, int64_t t, double *out)
+static void blend(const bench_dataset *ds, int64_t t, double *out)
 {
     const size_t n = 3 * (size_t)ds->src.nv;
     double u = (double)(t % 50) / 50.0;
@@ -166,11 +41,11 @@ static void blend(const dataset *ds, int64_t t, double *out)
         out[i] = (1 - u) * ds->poses[(size_t)a * n + i] + u * ds->poses[(size_t)b * n + i];
 }
 
-static int make_sequence(const dataset *ds, const char *out, int64_t n, int gzip)
+static int make_sequence(const bench_dataset *ds, const char *out, int64_t n, int gzip)
 {
     char msrc[300], mtgt[300], mark[600];
     const int64_t chunk = 16;
-    double *buf = xmalloc((size_t)chunk * 3 * ds->src.nv, sizeof *buf);
+    double *buf = bench_xmalloc((size_t)chunk * 3 * ds->src.nv, sizeof *buf);
     hid_t f;
     dtx_h5_seq seq;
     dtx_error e;
@@ -187,17 +62,17 @@ static int make_sequence(const dataset *ds, const char *out, int64_t n, int gzip
             dtx_h5_write_markers(f, mark, &ds->mk, msrc, mtgt, &e) != DTX_OK ||
             dtx_h5_seq_create(f, "/sequences/long", msrc, n, ds->src.nv, 0, (int)chunk, gzip,
                               &seq, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
     }
     for (int64_t t0 = 0; t0 < n; t0 += chunk) {
         int64_t c = n - t0 < chunk ? n - t0 : chunk;
         for (int64_t i = 0; i < c; i++)
             blend(ds, t0 + i, buf + (size_t)i * 3 * ds->src.nv);
         if (dtx_h5_seq_write(&seq, t0, c, buf, 0, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
     }
     if (dtx_h5_seq_commit(&seq, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     dtx_h5_seq_close(&seq);
     dtx_h5_close(&f, NULL);
     free(buf);
@@ -210,13 +85,13 @@ static int make_sequence(const dataset *ds, const char *out, int64_t n, int gzip
     return 0;
 }
 
-static int bench_sp04(const dataset *ds, int64_t n)
+static int bench_sp04(const bench_dataset *ds, int64_t n)
 {
     const int64_t block = n < BENCH_BLOCK ? n : BENCH_BLOCK;
     const size_t fs = 3 * (size_t)ds->src.nv, ft = 3 * (size_t)ds->tgt.nv;
-    double *Xs = xmalloc((size_t)block, fs * sizeof *Xs);
-    double *Xt = xmalloc((size_t)block, ft * sizeof *Xt);
-    double *res = xmalloc((size_t)block, sizeof *res);
+    double *Xs = bench_xmalloc((size_t)block, fs * sizeof *Xs);
+    double *Xt = bench_xmalloc((size_t)block, ft * sizeof *Xt);
+    double *res = bench_xmalloc((size_t)block, sizeof *res);
     double t0, c0, tc, tf, tt, ct, tb3, tb24;
     dtx_corr corr;
     dtx_corr_params prm;
@@ -227,12 +102,12 @@ static int bench_sp04(const dataset *ds, int64_t n)
     dtx_corr_params_default(&prm);
     t0 = omp_get_wtime();
     if (dtx_sp04_correspond(&ds->src, &ds->tgt, &ds->mk, &prm, &corr, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     tc = omp_get_wtime() - t0;
     t0 = omp_get_wtime();
     if (dtx_sp04_plan_create(&ds->src, &ds->tgt, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
                              NULL, 0, &plan, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     tf = omp_get_wtime() - t0;
     avx2 = dtx_sp04_plan_use_avx2(plan, 1);
 
@@ -242,17 +117,17 @@ static int bench_sp04(const dataset *ds, int64_t n)
         blend(ds, t, Xs + (size_t)t * fs);
     memset(Xt, 0, (size_t)block * ft * sizeof *Xt);
     if (dtx_sp04_apply(plan, block, Xs, Xt, res, &e) != DTX_OK) /* warm-up */
-        die(&e);
+        bench_die(&e);
 
     t0 = omp_get_wtime();
-    c0 = cpu_seconds();
+    c0 = bench_cpu_seconds();
     for (int64_t done = 0; done < n; done += block) {
         int64_t m = n - done < block ? n - done : block;
         if (dtx_sp04_apply(plan, m, Xs, Xt, res, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
     }
     tt = (omp_get_wtime() - t0) / n;
-    ct = (cpu_seconds() - c0) / n;
+    ct = (bench_cpu_seconds() - c0) / n;
     tb3 = dtx_sp04_plan_bare_solve_seconds_group(plan, 1, 200);
     tb24 = dtx_sp04_plan_bare_solve_seconds_group(plan, DTX_SP04_SOLVE_GROUP, 50);
 
@@ -306,8 +181,9 @@ static int spin(void)
 
 int main(int argc, char **argv)
 {
-    dataset ds;
+    bench_dataset ds;
     int rc;
+    bench_set_name("dtx_bench");
     if (argc == 2 && strcmp(argv[1], "spin") == 0)
         return spin();
     if (argc >= 3 && strcmp(argv[1], "sp04") == 0) {
@@ -316,7 +192,7 @@ int main(int argc, char **argv)
             fprintf(stderr, "dtx_bench: NFRAMES must be at least 1\n");
             return 2;
         }
-        load_dataset(argv[2], &ds);
+        bench_load_dataset(argv[2], &ds);
         rc = bench_sp04(&ds, n);
     } else if (argc >= 5 && strcmp(argv[1], "make-sequence") == 0) {
         int64_t n = atoll(argv[4]);
@@ -325,7 +201,7 @@ int main(int argc, char **argv)
             fprintf(stderr, "usage: dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
             return 2;
         }
-        load_dataset(argv[2], &ds);
+        bench_load_dataset(argv[2], &ds);
         rc = make_sequence(&ds, argv[3], n, gzip);
     } else {
         fprintf(stderr, "usage: dtx_bench sp04 DATA_DIR [NFRAMES]\n"
@@ -333,6 +209,6 @@ int main(int argc, char **argv)
                         "       dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
         return 2;
     }
-    free_dataset(&ds);
+    bench_free_dataset(&ds);
     return rc;
 }

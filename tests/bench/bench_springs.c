@@ -33,29 +33,17 @@
  * The machine is shared: compare CPU seconds, or runs made one after the
  * other.
  */
+#include "bench_data.h"
 #include "dtx_core.h"
-#include "meshfile.h"
 #include "springs.h"
 
-#include <dirent.h>
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <time.h>
 
 #define MAX_THREAD_RUNS 8
-
-typedef struct {
-    char dir[1024];
-    char src_name[256], tgt_name[256];
-    dtx_mesh src, tgt;
-    dtx_markers mk;
-    int nposes;
-    double *poses;   /* nposes x nv_s x 3 */
-    double *results; /* nposes x nv_t x 3: paper-results, or NULL */
-} dataset;
 
 typedef struct {
     int same, proxy, frames, levels, internal;
@@ -63,135 +51,6 @@ typedef struct {
     double amount;
     int nthreads, threads[MAX_THREAD_RUNS];
 } options;
-
-static double cpu_seconds(void)
-{
-    struct timespec ts;
-    if (clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts) != 0)
-        return 0.0;
-    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
-}
-
-static void die(const dtx_error *e)
-{
-    fprintf(stderr, "dtx_bench_springs: %s\n", e->msg);
-    exit(1);
-}
-
-static void die_msg(const char *what, const char *path)
-{
-    fprintf(stderr, "dtx_bench_springs: %s: %s\n", path, what);
-    exit(1);
-}
-
-static void *xmalloc(size_t n, size_t size)
-{
-    void *p = dtx_alloc(n, size, 0);
-    if (!p) {
-        fprintf(stderr, "dtx_bench_springs: out of memory (%zu x %zu bytes)\n", n, size);
-        exit(1);
-    }
-    return p;
-}
-
-static void load(const char *path, dtx_mesh *m)
-{
-    dtx_error e;
-    if (dtx_obj_read(path, m, NULL, &e) != DTX_OK)
-        die(&e);
-}
-
-/* The name before "-reference.obj" of the one such file in dir/sub. */
-static void find_reference(const char *dir, const char *sub, char *name, size_t size)
-{
-    static const char suffix[] = "-reference.obj";
-    char path[1200];
-    DIR *d;
-    struct dirent *ent;
-    int found = 0;
-    snprintf(path, sizeof path, "%s/%s", dir, sub);
-    d = opendir(path);
-    if (!d)
-        die_msg("cannot open the directory", path);
-    while ((ent = readdir(d)) != NULL) {
-        size_t n = strlen(ent->d_name), ns = sizeof suffix - 1;
-        if (n > ns && n - ns < size && strcmp(ent->d_name + n - ns, suffix) == 0) {
-            if (found++)
-                die_msg("more than one *-reference.obj", path);
-            memcpy(name, ent->d_name, n - ns);
-            name[n - ns] = '\0';
-        }
-    }
-    closedir(d);
-    if (!found)
-        die_msg("no *-reference.obj", path);
-}
-
-static void load_dataset(const char *dir, dataset *ds)
-{
-    char path[1600];
-    dtx_error e;
-    memset(ds, 0, sizeof *ds);
-    snprintf(ds->dir, sizeof ds->dir, "%s", dir);
-    find_reference(dir, "source", ds->src_name, sizeof ds->src_name);
-    find_reference(dir, "target", ds->tgt_name, sizeof ds->tgt_name);
-    snprintf(path, sizeof path, "%s/source/%s-reference.obj", dir, ds->src_name);
-    load(path, &ds->src);
-    snprintf(path, sizeof path, "%s/target/%s-reference.obj", dir, ds->tgt_name);
-    load(path, &ds->tgt);
-    snprintf(path, sizeof path, "%s/markers.csv", dir);
-    if (dtx_markers_read_csv(path, 0, &ds->mk, &e) != DTX_OK)
-        die(&e);
-    for (;;) {
-        FILE *f;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, ds->nposes + 1);
-        if (!(f = fopen(path, "r")))
-            break;
-        fclose(f);
-        ds->nposes++;
-    }
-    if (ds->nposes == 0) {
-        snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
-        die_msg("no numbered poses (expected this file and following ones)", path);
-    }
-    ds->poses = xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
-    for (int k = 0; k < ds->nposes; k++) {
-        dtx_mesh m;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
-        load(path, &m);
-        if (m.nv != ds->src.nv)
-            die_msg("vertex count differs from the reference", path);
-        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
-        dtx_mesh_free(&m);
-    }
-    {
-        FILE *f;
-        snprintf(path, sizeof path, "%s/paper-results/%s-01.obj", dir, ds->tgt_name);
-        if ((f = fopen(path, "r")) != NULL) {
-            fclose(f);
-            ds->results = xmalloc((size_t)ds->nposes * 3 * ds->tgt.nv, sizeof *ds->results);
-            for (int k = 0; k < ds->nposes; k++) {
-                dtx_mesh m;
-                snprintf(path, sizeof path, "%s/paper-results/%s-%02d.obj", dir, ds->tgt_name,
-                         k + 1);
-                load(path, &m);
-                if (m.nv != ds->tgt.nv)
-                    die_msg("vertex count differs from the target", path);
-                memcpy(ds->results + (size_t)k * 3 * ds->tgt.nv, m.V, sizeof(double) * 3 * m.nv);
-                dtx_mesh_free(&m);
-            }
-        }
-    }
-}
-
-static void free_dataset(dataset *ds)
-{
-    dtx_mesh_free(&ds->src);
-    dtx_mesh_free(&ds->tgt);
-    dtx_markers_free(&ds->mk);
-    free(ds->poses);
-    free(ds->results);
-}
 
 /* RMS distance of a and b (n x 3) after removing the mean offset. */
 static double rms_centered(const double *a, const double *b, int32_t n)
@@ -208,21 +67,6 @@ static double rms_centered(const double *a, const double *b, int32_t n)
             s2 += d * d;
         }
     return sqrt(s2 / n);
-}
-
-static void summary3(const char *what, const double *v, int n, double scale, const char *unit)
-{
-    double lo, hi, s = 0.0;
-    if (n < 1)
-        return;
-    lo = hi = v[0];
-    for (int i = 0; i < n; i++) {
-        lo = v[i] < lo ? v[i] : lo;
-        hi = v[i] > hi ? v[i] : hi;
-        s += v[i];
-    }
-    printf("    %-34s min %.4g  mean %.4g  max %.4g %s\n", what, scale * lo, scale * s / n,
-           scale * hi, unit);
 }
 
 /* The smooth non-rigid "thicker, longer" map of the same run (see the file
@@ -275,14 +119,14 @@ static double timed_runs(const char *label, dtx_springs_plan *plan, const option
         dtx_error e;
         double t0, c0, wall, cpu;
         double *out =
-            r == 0 ? Xt : (tmp ? tmp : (tmp = xmalloc((size_t)nf * 3 * nv_t, sizeof *tmp)));
+            r == 0 ? Xt : (tmp ? tmp : (tmp = bench_xmalloc((size_t)nf * 3 * nv_t, sizeof *tmp)));
         omp_set_num_threads(o->threads[r]);
         t0 = omp_get_wtime();
-        c0 = cpu_seconds();
+        c0 = bench_cpu_seconds();
         if (dtx_springs_apply(plan, nf, Xs, out, fi, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         wall = (omp_get_wtime() - t0) / nf;
-        cpu = (cpu_seconds() - c0) / nf;
+        cpu = (bench_cpu_seconds() - c0) / nf;
         if (r == 0)
             first = wall;
         printf("  %-12s %d thread(s): %8.3f s per frame (CPU %.3f s per frame)%s\n", label,
@@ -299,27 +143,27 @@ static double timed_runs(const char *label, dtx_springs_plan *plan, const option
 
 static void frame_figures(const dtx_springs_frame_info *fi, int nf)
 {
-    double *v = xmalloc((size_t)nf, sizeof *v);
+    double *v = bench_xmalloc((size_t)nf, sizeof *v);
     int conv = 0;
     long inv = 0;
     for (int f = 0; f < nf; f++)
         v[f] = fi[f].iterations;
-    summary3("Newton iterations (fine level)", v, nf, 1.0, "");
+    bench_summary3(BENCH_SUMMARY_G4, "Newton iterations (fine level)", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++)
         v[f] = fi[f].coarse_iterations;
-    summary3("Newton iterations (coarse levels)", v, nf, 1.0, "");
+    bench_summary3(BENCH_SUMMARY_G4, "Newton iterations (coarse levels)", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++)
         v[f] = fi[f].energy_start;
-    summary3("energy at the fine start", v, nf, 1.0, "");
+    bench_summary3(BENCH_SUMMARY_G4, "energy at the fine start", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++)
         v[f] = fi[f].residual;
-    summary3("residual (RMS relative length error)", v, nf, 1.0, "");
+    bench_summary3(BENCH_SUMMARY_G4, "residual (RMS relative length error)", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++) {
         v[f] = fi[f].inverted;
         conv += fi[f].converged;
         inv += fi[f].inverted;
     }
-    summary3("inverted triangles", v, nf, 1.0, "");
+    bench_summary3(BENCH_SUMMARY_G4, "inverted triangles", v, nf, 1.0, "");
     printf("    converged %d of %d frames; %ld inverted triangles in all\n", conv, nf, inv);
     free(v);
 }
@@ -410,7 +254,7 @@ static void parse(int argc, char **argv, options *o)
 int main(int argc, char **argv)
 {
     options o;
-    dataset ds;
+    bench_dataset ds;
     dtx_corr corr;
     dtx_corr_params cp;
     dtx_springs_params prm;
@@ -419,10 +263,12 @@ int main(int argc, char **argv)
     double t0, t_corr, diag_t, *Xs, *Yt;
     int nf;
 
+    bench_set_name("dtx_bench_springs");
     if (argc < 2 || argv[1][0] == '-')
         usage();
     parse(argc, argv, &o);
-    load_dataset(argv[1], &ds);
+    bench_load_dataset(argv[1], &ds);
+    bench_load_paper_results(argv[1], &ds);
     nf = o.frames > 0 ? o.frames : ds.nposes;
     dtx_springs_params_default(&prm);
     prm.internal = o.internal;
@@ -436,27 +282,27 @@ int main(int argc, char **argv)
     dtx_corr_params_default(&cp);
     t0 = omp_get_wtime();
     if (dtx_sp04_correspond(&ds.src, &ds.tgt, &ds.mk, &cp, &corr, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     t_corr = omp_get_wtime() - t0;
     printf("  sp04 correspondence %.3f s (fit %.3g%% of the diagonal)\n", t_corr,
            100.0 * corr.fit_rms);
     if (dtx_sp04_plan_create(&ds.src, &ds.tgt, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
                              NULL, 0, &sp, &e) != DTX_OK)
-        die(&e);
-    Xs = xmalloc((size_t)nf, 3 * (size_t)ds.src.nv * sizeof *Xs);
+        bench_die(&e);
+    Xs = bench_xmalloc((size_t)nf, 3 * (size_t)ds.src.nv * sizeof *Xs);
     for (int f = 0; f < nf; f++)
         memcpy(Xs + (size_t)f * 3 * ds.src.nv, ds.poses + (size_t)(f % ds.nposes) * 3 * ds.src.nv,
                3 * (size_t)ds.src.nv * sizeof *Xs);
-    Yt = xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *Yt);
+    Yt = bench_xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *Yt);
     t0 = omp_get_wtime();
     if (dtx_sp04_apply(sp, nf, Xs, Yt, NULL, &e) != DTX_OK)
-        die(&e);
+        bench_die(&e);
     printf("  sp04 transfer %.4f s per frame\n", (omp_get_wtime() - t0) / nf);
 
     if (o.same) {
         dtx_mesh T = {0};
         if (dtx_mesh_copy(&ds.tgt, &T, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         thicken(&ds.tgt, o.amount, T.V);
         printf("same connectivity (%s rest -> sp04 %s poses, onto %s thickened by %g): %d "
                "vertices\n",
@@ -468,21 +314,21 @@ int main(int argc, char **argv)
             dtx_springs_frame_info *f1, *fm;
             if (!(o.starts & (1 << sm)))
                 continue;
-            X1 = xmalloc((size_t)nf, 3 * (size_t)T.nv * sizeof *X1);
-            Xm = xmalloc((size_t)nf, 3 * (size_t)T.nv * sizeof *Xm);
-            d = xmalloc((size_t)nf, sizeof *d);
-            f1 = xmalloc((size_t)nf, sizeof *f1);
-            fm = xmalloc((size_t)nf, sizeof *fm);
+            X1 = bench_xmalloc((size_t)nf, 3 * (size_t)T.nv * sizeof *X1);
+            Xm = bench_xmalloc((size_t)nf, 3 * (size_t)T.nv * sizeof *Xm);
+            d = bench_xmalloc((size_t)nf, sizeof *d);
+            f1 = bench_xmalloc((size_t)nf, sizeof *f1);
+            fm = bench_xmalloc((size_t)nf, sizeof *fm);
             p0.start = pg.start = sm == 0 ? DTX_SPRINGS_START_LINEAR : DTX_SPRINGS_START_REST;
             p0.levels = 0;
             printf(" start %s:\n", sm == 0 ? "linear" : "rest (the paper's)");
             if (dtx_springs_plan_create(&ds.tgt, &T, NULL, &p0, DTX_ANCHOR_FIXED, NULL, NULL, 0,
                                         &p1, &e) != DTX_OK)
-                die(&e);
+                bench_die(&e);
             print_plan("single", p1);
             if (dtx_springs_plan_create(&ds.tgt, &T, NULL, &pg, DTX_ANCHOR_FIXED, NULL, NULL, 0,
                                         &pm, &e) != DTX_OK)
-                die(&e);
+                bench_die(&e);
             print_plan("multigrid", pm);
             s1 = timed_runs("single level", p1, &o, nf, Yt, X1, f1, T.nv);
             frame_figures(f1, nf);
@@ -492,7 +338,8 @@ int main(int argc, char **argv)
             for (int f = 0; f < nf; f++)
                 d[f] = rms_centered(X1 + (size_t)f * 3 * T.nv, Xm + (size_t)f * 3 * T.nv, T.nv) /
                        diag_t;
-            summary3("RMS single - multigrid", d, nf, 100.0, "% of the diagonal");
+            bench_summary3(BENCH_SUMMARY_G4, "RMS single - multigrid", d, nf, 100.0,
+                           "% of the diagonal");
             dtx_springs_plan_free(&p1);
             dtx_springs_plan_free(&pm);
             free(X1);
@@ -506,13 +353,13 @@ int main(int argc, char **argv)
 
     if (o.proxy) {
         dtx_springs_plan *pp = NULL;
-        double *X = xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *X);
-        dtx_springs_frame_info *fi = xmalloc((size_t)nf, sizeof *fi);
+        double *X = bench_xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *X);
+        dtx_springs_frame_info *fi = bench_xmalloc((size_t)nf, sizeof *fi);
         printf("proxy (%s -> %s, different connectivity): solve mesh %d vertices\n", ds.src_name,
                ds.tgt_name, (int)ds.src.nv);
         if (dtx_springs_plan_create(&ds.src, &ds.tgt, corr.deformed_src, &prm, DTX_ANCHOR_FIXED,
                                     NULL, NULL, 0, &pp, &e) != DTX_OK)
-            die(&e);
+            bench_die(&e);
         print_plan("proxy", pp);
         timed_runs("proxy", pp, &o, nf, Xs, X, fi, ds.tgt.nv);
         frame_figures(fi, nf);
@@ -550,6 +397,6 @@ int main(int argc, char **argv)
     dtx_corr_free(&corr);
     free(Xs);
     free(Yt);
-    free_dataset(&ds);
+    bench_free_dataset(&ds);
     return 0;
 }
