@@ -143,6 +143,21 @@ double dtx_bbox_diagonal(const double *X, int32_t n)
                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
+double dtx_mesh_mean_edge(const dtx_mesh *m)
+{
+    double sum = 0;
+    if (m->nf < 1)
+        return 0;
+    for (int32_t f = 0; f < m->nf; f++)
+        for (int e = 0; e < 3; e++) {
+            const double *a = m->V + 3 * (size_t)m->F[3 * (size_t)f + e];
+            const double *b = m->V + 3 * (size_t)m->F[3 * (size_t)f + (e + 1) % 3];
+            sum += sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                        (a[2] - b[2]) * (a[2] - b[2]));
+        }
+    return sum / (3.0 * m->nf);
+}
+
 static void face_cross(const double *X, const int32_t *t, double *c)
 {
     const double *a = X + 3 * t[0], *b = X + 3 * t[1], *d = X + 3 * t[2];

@@ -100,6 +100,10 @@ int dtx_mesh_report_notes(const dtx_mesh_report *rep, char *buf, size_t n);
 /* Length of the bounding-box diagonal of X (n x 3). */
 double dtx_bbox_diagonal(const double *X, int32_t n);
 
+/* Mean edge length of the mesh (each face's three edges, shared edges
+ * counted from each face); 0 for a mesh without faces. */
+double dtx_mesh_mean_edge(const dtx_mesh *m);
+
 /* Unit face normals N (nf x 3, caller-allocated) of the mesh with vertex
  * positions X (nv x 3).  Zero-area faces get a zero normal. */
 void dtx_face_normals(const double *X, const int32_t *F, int32_t nf, double *N);

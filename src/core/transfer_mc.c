@@ -491,12 +491,12 @@ done:
 }
 
 /* E3's weight of each proximity pair, p->w3p[i] = w3 c_i (see the top of
- * the file). */
+ * the file); h is the target's bounding-box diagonal. */
 static dtx_status pair_weights(dtx_mc_plan *p, const dtx_mesh *tgt, const dtx_mc_params *prm,
-                               dtx_error *err)
+                               double h, dtx_error *err)
 {
     const int64_t np = p->prox.npairs;
-    double h = dtx_bbox_diagonal(tgt->V, tgt->nv), mean_edge = 0.0, floor_len;
+    double floor_len = 0.1 * dtx_mesh_mean_edge(tgt);
     int32_t *count = NULL;
     p->w3p = dtx_alloc((size_t)(np > 0 ? np : 1), sizeof *p->w3p, 0);
     if (!p->w3p)
@@ -511,15 +511,6 @@ static dtx_status pair_weights(dtx_mc_plan *p, const dtx_mesh *tgt, const dtx_mc
         return dtx_seterr(err, DTX_ENOMEM, "out of memory (proximity-pair weights)");
     for (int64_t i = 0; i < 2 * np; i++)
         count[p->prox.pairs[i]]++;
-    for (int32_t f = 0; f < tgt->nf; f++)
-        for (int k = 0; k < 3; k++) {
-            const double *a = tgt->V + 3 * (size_t)tgt->F[3 * (size_t)f + k];
-            const double *b = tgt->V + 3 * (size_t)tgt->F[3 * (size_t)f + (k + 1) % 3];
-            double d[3] = {a[0] - b[0], a[1] - b[1], a[2] - b[2]};
-            mean_edge += sqrt(dot3(d, d));
-        }
-    mean_edge /= 3.0 * (tgt->nf > 0 ? tgt->nf : 1);
-    floor_len = 0.1 * mean_edge;
     if (!(floor_len > 0.0))
         floor_len = 1e-3 * h;
     for (int64_t i = 0; i < np; i++) {
@@ -713,7 +704,7 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     p->w2 = prm->w_orphan;
     p->w3 = prm->w_proximity;
     p->w4 = prm->w_laplacian / (h * h);
-    st = pair_weights(p, tgt, prm, err);
+    st = pair_weights(p, tgt, prm, h, err);
     if (st != DTX_OK)
         goto fail;
 

@@ -185,20 +185,6 @@ dtx_status dtx_keypoints_map(const double *deformed_src, int32_t nv_src, const d
 /* Labels                                                              */
 /* ------------------------------------------------------------------ */
 
-double dtx_mesh_mean_edge(const dtx_mesh *m)
-{
-    double sum = 0;
-    if (m->nf < 1)
-        return 0;
-    for (int32_t f = 0; f < m->nf; f++)
-        for (int e = 0; e < 3; e++) {
-            const double *a = m->V + 3 * (size_t)m->F[3 * (size_t)f + e];
-            const double *b = m->V + 3 * (size_t)m->F[3 * (size_t)f + (e + 1) % 3];
-            sum += sqrt(dist2(a, b));
-        }
-    return sum / (3.0 * m->nf);
-}
-
 void dtx_keypoints_nearest_markers(const dtx_mesh *src, const dtx_markers *mk, const int32_t *keys,
                                    int32_t m, int32_t *marker, double *dist)
 {

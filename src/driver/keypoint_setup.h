@@ -66,10 +66,6 @@ dtx_status dtx_keypoints_map(const double *deformed_src, int32_t nv_src, const d
                              const int32_t *keys, int32_t m, int32_t *tgt_vertex, int32_t *dup,
                              dtx_error *err);
 
-/* Mean edge length of the mesh (each face's three edges, shared edges
- * counted from each face); 0 for a mesh without faces. */
-double dtx_mesh_mean_edge(const dtx_mesh *m);
-
 /* For each of the m key vertices, the source marker of mk nearest to it on
  * the rest source (Euclidean; lowest marker on ties): marker[k] its index
  * in mk (-1 when mk is NULL or empty) and dist[k] the distance (INFINITY
