@@ -307,24 +307,24 @@ static void solves_init(solve_stats *s)
 
 /* Frame f's solve: into s, and as its frame_stats row (inverted: -1 where
  * the method does not count them). */
-static void solves_add(solve_stats *s, int64_t f, const dtx_springs_frame_info *in,
-                        int32_t row[DTX_H5_FRAME_STATS])
+static void solves_add(solve_stats *s, int64_t f, int32_t iterations, int converged,
+                       int32_t inverted, int32_t row[DTX_H5_FRAME_STATS])
 {
-    row[0] = in->iterations;
-    row[1] = in->converged ? 1 : 0;
-    row[2] = in->inverted;
+    row[0] = iterations;
+    row[1] = converged ? 1 : 0;
+    row[2] = inverted;
     s->frames++;
-    s->iterations += in->iterations;
-    s->max_iterations = in->iterations > s->max_iterations ? in->iterations : s->max_iterations;
-    if (!in->converged) {
+    s->iterations += iterations;
+    s->max_iterations = iterations > s->max_iterations ? iterations : s->max_iterations;
+    if (!converged) {
         s->unconverged++;
         s->first_unconverged = f < s->first_unconverged ? f : s->first_unconverged;
     }
-    if (in->inverted > 0)
+    if (inverted > 0)
         s->inverted_frames++;
-    if (in->inverted > s->max_inverted ||
-        (in->inverted == s->max_inverted && in->inverted > 0 && f < s->max_inverted_frame)) {
-        s->max_inverted = in->inverted;
+    if (inverted > s->max_inverted ||
+        (inverted == s->max_inverted && inverted > 0 && f < s->max_inverted_frame)) {
+        s->max_inverted = inverted;
         s->max_inverted_frame = f;
     }
 }
@@ -1314,7 +1314,7 @@ static void rank_range(int64_t ntodo, int nranks, int q, int rot, int64_t *a, in
 typedef struct {
     int32_t block;         /* frames per block, a multiple of the run's align */
     double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
-    dtx_springs_frame_info *sinfo; /* iterative methods: block entries */
+    dtx_springs_frame_info *sinfo; /* method springs: block entries */
     dtx_mc_frame_info *minfo;      /* method multicomponent: block entries */
     int32_t *fstats;       /* iterative methods: block x DTX_H5_FRAME_STATS */
 } frame_buffers;
@@ -1397,25 +1397,14 @@ static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
 static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
                              double *res, frame_buffers *fb, dtx_error *err)
 {
-    dtx_springs_frame_info *sinfo = fb->sinfo;
     if (p->springs) {
-        dtx_status st = dtx_springs_apply(p->springs, n, Xs, Xt, sinfo, err);
+        dtx_status st = dtx_springs_apply(p->springs, n, Xs, Xt, fb->sinfo, err);
         for (int64_t i = 0; st == DTX_OK && i < n; i++)
-            res[i] = sinfo[i].residual;
+            res[i] = fb->sinfo[i].residual;
         return st;
     }
-    if (p->mc) {
-        /* As frame_stats rows: inverted triangles are not counted (-1). */
-        dtx_status st = dtx_mc_apply(p->mc, n, Xs, Xt, res, fb->minfo, err);
-        for (int64_t i = 0; st == DTX_OK && i < n; i++) {
-            memset(&sinfo[i], 0, sizeof sinfo[i]);
-            sinfo[i].iterations = fb->minfo[i].iterations;
-            sinfo[i].converged = fb->minfo[i].converged;
-            sinfo[i].residual = res[i];
-            sinfo[i].inverted = sinfo[i].first_inverted = -1;
-        }
-        return st;
-    }
+    if (p->mc)
+        return dtx_mc_apply(p->mc, n, Xs, Xt, res, fb->minfo, err);
     if (p->bh) {
         dtx_status st = dtx_bh_apply(p->bh, n, Xs, Xt, res, err);
         if (st == DTX_OK && p->recentre)
@@ -1491,8 +1480,12 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
                 break;
             }
             stats_add(&rc->st, fb->res[i]);
-            if (plan->springs || plan->mc)
-                solves_add(&rc->sv, f0 + i, &fb->sinfo[i], fb->fstats + DTX_H5_FRAME_STATS * i);
+            if (plan->springs)
+                solves_add(&rc->sv, f0 + i, fb->sinfo[i].iterations, fb->sinfo[i].converged,
+                           fb->sinfo[i].inverted, fb->fstats + DTX_H5_FRAME_STATS * i);
+            else if (plan->mc) /* inverted triangles are not counted */
+                solves_add(&rc->sv, f0 + i, fb->minfo[i].iterations, fb->minfo[i].converged, -1,
+                           fb->fstats + DTX_H5_FRAME_STATS * i);
         }
         if ((st = agree(r->comm, st, err)) != DTX_OK)
             goto done;
@@ -1654,15 +1647,15 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
     fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
-    if (iterative_method(&r->job)) {
+    if (r->job.method == DTX_METHOD_SPRINGS)
         fb.sinfo = dtx_alloc((size_t)fb.block, sizeof *fb.sinfo, 1);
-        fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
-    }
     if (r->job.method == DTX_METHOD_MULTICOMPONENT)
         fb.minfo = dtx_alloc((size_t)fb.block, sizeof *fb.minfo, 1);
-    st = fb.Xs && fb.Xt && fb.res &&
-                 (!iterative_method(&r->job) || (fb.sinfo && fb.fstats)) &&
-                 (r->job.method != DTX_METHOD_MULTICOMPONENT || fb.minfo)
+    if (iterative_method(&r->job))
+        fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
+    st = fb.Xs && fb.Xt && fb.res && (r->job.method != DTX_METHOD_SPRINGS || fb.sinfo) &&
+                 (r->job.method != DTX_METHOD_MULTICOMPONENT || fb.minfo) &&
+                 (!iterative_method(&r->job) || fb.fstats)
              ? DTX_OK
              : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
     if ((st = agree(r->comm, st, err)) != DTX_OK)
