@@ -80,6 +80,27 @@ static void find_reference(const char *dir, const char *sub, char *name, size_t 
         bench_die_msg("no *-reference.obj", path);
 }
 
+/* Loads the n meshes dir/sub/<name>-01.obj ... -<n>.obj, each of nv
+ * vertices (else "<path>: vertex count differs from <than>" and exit), into
+ * a new array of n x nv x 3 positions. */
+static double *load_numbered(const char *dir, const char *sub, const char *name, int n,
+                             int32_t nv, const char *than)
+{
+    char path[1600], msg[128];
+    double *out = bench_xmalloc((size_t)n * 3 * nv, sizeof *out);
+    snprintf(msg, sizeof msg, "vertex count differs from %s", than);
+    for (int k = 0; k < n; k++) {
+        dtx_mesh m;
+        snprintf(path, sizeof path, "%s/%s/%s-%02d.obj", dir, sub, name, k + 1);
+        load(path, &m);
+        if (m.nv != nv)
+            bench_die_msg(msg, path);
+        memcpy(out + (size_t)k * 3 * nv, m.V, sizeof(double) * 3 * m.nv);
+        dtx_mesh_free(&m);
+    }
+    return out;
+}
+
 void bench_load_dataset(const char *dir, bench_dataset *ds)
 {
     char path[1600];
@@ -107,16 +128,8 @@ void bench_load_dataset(const char *dir, bench_dataset *ds)
         snprintf(path, sizeof path, "%s/source/%s-01.obj", dir, ds->src_name);
         bench_die_msg("no numbered poses (expected this file and following ones)", path);
     }
-    ds->poses = bench_xmalloc((size_t)ds->nposes * 3 * ds->src.nv, sizeof *ds->poses);
-    for (int k = 0; k < ds->nposes; k++) {
-        dtx_mesh m;
-        snprintf(path, sizeof path, "%s/source/%s-%02d.obj", dir, ds->src_name, k + 1);
-        load(path, &m);
-        if (m.nv != ds->src.nv)
-            bench_die_msg("vertex count differs from the reference", path);
-        memcpy(ds->poses + (size_t)k * 3 * ds->src.nv, m.V, sizeof(double) * 3 * m.nv);
-        dtx_mesh_free(&m);
-    }
+    ds->poses =
+        load_numbered(dir, "source", ds->src_name, ds->nposes, ds->src.nv, "the reference");
 }
 
 void bench_load_paper_results(const char *dir, bench_dataset *ds)
@@ -127,16 +140,8 @@ void bench_load_paper_results(const char *dir, bench_dataset *ds)
     if ((f = fopen(path, "r")) == NULL)
         return;
     fclose(f);
-    ds->results = bench_xmalloc((size_t)ds->nposes * 3 * ds->tgt.nv, sizeof *ds->results);
-    for (int k = 0; k < ds->nposes; k++) {
-        dtx_mesh m;
-        snprintf(path, sizeof path, "%s/paper-results/%s-%02d.obj", dir, ds->tgt_name, k + 1);
-        load(path, &m);
-        if (m.nv != ds->tgt.nv)
-            bench_die_msg("vertex count differs from the target", path);
-        memcpy(ds->results + (size_t)k * 3 * ds->tgt.nv, m.V, sizeof(double) * 3 * m.nv);
-        dtx_mesh_free(&m);
-    }
+    ds->results =
+        load_numbered(dir, "paper-results", ds->tgt_name, ds->nposes, ds->tgt.nv, "the target");
 }
 
 void bench_free_dataset(bench_dataset *ds)
