@@ -12,6 +12,8 @@
  */
 #include "cmd_generate.h"
 
+#include "options.h"
+
 #include "atomic_file.h"
 #include "dtx_core.h"
 #include "generate.h"
@@ -74,7 +76,8 @@ static int usage_error(const char *fmt, ...)
     va_start(ap, fmt);
     vfprintf(stderr, fmt, ap);
     va_end(ap);
-    fputs("\nusage:\n" DTX_GENERATE_USAGE, stderr);
+    fputc('\n', stderr);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("generate"));
     return 2;
 }
 

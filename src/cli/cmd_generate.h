@@ -5,14 +5,6 @@
 #ifndef DTX_CMD_GENERATE_H
 #define DTX_CMD_GENERATE_H
 
-/* Usage lines of `dtx generate`, for the command's overall usage text. */
-#define DTX_GENERATE_USAGE                                                                     \
-    "  dtx generate pebbles IN OUT.obj --pieces N [--gap G] [--thickness T] [--subdivide L]\n" \
-    "  dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"            \
-    "  dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"                \
-    "  dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"     \
-    "      each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]\n"
-
 /* Runs `dtx generate KIND IN OUT [options]` with argv[1] == "generate".
  * Prints what it made (or "dtx: error: ..." / a usage message) on stderr.
  * Returns the exit status: 0 on success, 1 on an error (no output file is

@@ -10,6 +10,8 @@
  */
 #include "cmd_inspect.h"
 
+#include "options.h"
+
 #include "h5inspect.h"
 #include "h5layout.h"
 
@@ -25,7 +27,8 @@
 
 static int usage(const char *msg)
 {
-    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_INSPECT_USAGE);
+    fprintf(stderr, "dtx: %s\n", msg);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("inspect"));
     return 2;
 }
 

@@ -5,9 +5,6 @@
 #ifndef DTX_CMD_INSPECT_H
 #define DTX_CMD_INSPECT_H
 
-/* The usage line of `dtx inspect`, for the command's usage text. */
-#define DTX_INSPECT_USAGE "  dtx inspect FILE.h5 [--json]\n"
-
 /* Runs `dtx inspect` with main's argc/argv (argv[1] == "inspect").  Prints
  * the summary on stdout (text, or one JSON document with --json).  Returns
  * the exit status: 0 on success, 1 on an error (a missing file, not HDF5,

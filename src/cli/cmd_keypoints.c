@@ -19,6 +19,8 @@
  */
 #include "cmd_keypoints.h"
 
+#include "options.h"
+
 #include "atomic_file.h"
 #include "dtx_core.h"
 #include "h5layout.h"
@@ -62,8 +64,10 @@ typedef struct {
 
 static int usage(int rank, const char *msg)
 {
-    if (rank == 0)
-        fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_KEYPOINTS_USAGE);
+    if (rank == 0) {
+        fprintf(stderr, "dtx: %s\n", msg);
+        dtx_cli_print_usage(stderr, dtx_cli_find_name("keypoints"));
+    }
     return 2;
 }
 

@@ -6,13 +6,6 @@
 #ifndef DTX_CMD_KEYPOINTS_H
 #define DTX_CMD_KEYPOINTS_H
 
-/* The usage lines of `dtx keypoints`, for the command's usage text. */
-#define DTX_KEYPOINTS_USAGE                                                                   \
-    "  dtx keypoints FILE.h5 --mesh /meshes/SRC --sequence /sequences/S [--sequence ...]\n"   \
-    "                [--markers /markers/M [--target /meshes/T]] [--name NAME] [-o OUT.h5]\n" \
-    "                [--candidates N] [--eps E] [--max K] [--training-frames N]\n"            \
-    "                [--csv OUT.csv]   (alone or under mpirun)\n"
-
 /* Runs `dtx keypoints` with main's argc/argv (argv[1] == "keypoints");
  * initialises and finalises MPI.  Selects key points on the source's
  * frames, prints them (rank 0, stdout) and writes /keypoints/NAME (NAME

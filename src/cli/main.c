@@ -9,11 +9,13 @@
 #include "cmd_keypoints.h"
 #include "cmd_render.h"
 #include "cmd_report.h"
+#include "cmd_rm.h"
 #include "driver.h"
 #include "dtx_core.h"
 #include "h5layout.h"
 #include "job.h"
 #include "meshfile.h"
+#include "options.h"
 
 #include <dirent.h>
 #include <ctype.h>
@@ -27,29 +29,70 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-static const char usage_text[] =
-    "usage:\n"
-    "  dtx import mesh FILE.(obj|ply|off) -o OUT.h5 --name NAME\n"
-    "  dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
-    "                      [--dtype float32|float64] [--compress none|gzip]\n"
-    "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
-    "                     [--source /meshes/A] [--target /meshes/B]\n"
-    "  dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]   (alone or under mpirun)\n"
-    DTX_KEYPOINTS_USAGE
-    DTX_EXPORT_USAGE
-    DTX_INSPECT_USAGE
-    "  dtx validate FILE.h5\n"
-    "  dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]   (exit 1 if they differ)\n"
-    DTX_RENDER_USAGE
-    DTX_REPORT_USAGE
-    DTX_GENERATE_USAGE
-    "  dtx version\n";
+
+/* The command being run (for its usage text), set by main(). */
+static const dtx_cli_cmd *current_cmd;
+
+/* Under mpirun every rank would print the same usage error: only rank 0 does. */
+static int quiet_rank(void)
+{
+    const char *r = getenv("OMPI_COMM_WORLD_RANK");
+    return r && strcmp(r, "0") != 0;
+}
 
 static int usage(const char *msg)
 {
+    if (quiet_rank())
+        return 2;
     if (msg)
         fprintf(stderr, "dtx: %s\n", msg);
-    fputs(usage_text, stderr);
+    if (current_cmd)
+        dtx_cli_print_usage(stderr, current_cmd);
+    else
+        dtx_cli_print_overview(stderr);
+    return 2;
+}
+
+/* dtx help [COMMAND...], dtx --help */
+static int cmd_help(int argc, char **argv)
+{
+    const dtx_cli_cmd *c;
+    if (argc <= 2 || argv[1][0] == '-') {
+        dtx_cli_print_overview(stdout);
+        return 0;
+    }
+    /* "help import mesh" finds "import mesh"; "help import" the first import. */
+    if (!(c = dtx_cli_find(argc - 1, argv + 1)) && !(c = dtx_cli_find_name(argv[2]))) {
+        fprintf(stderr, "dtx: help: unknown command '%s'\n", argv[2]);
+        dtx_cli_print_overview(stderr);
+        return 2;
+    }
+    dtx_cli_print_help(stdout, c);
+    return 0;
+}
+
+/* Checks the options of argv against its command's table: 0 to go on, or the
+ * exit status (0 after --help, 2 after a usage error) with *done set. */
+static int check_options(int argc, char **argv, int *done)
+{
+    char msg[512];
+    int r;
+    *done = 0;
+    if (!(current_cmd = dtx_cli_find(argc, argv)))
+        return 0;
+    r = dtx_cli_check(current_cmd, argc, argv, msg, sizeof msg);
+    if (r == 0)
+        return 0;
+    *done = 1;
+    if (r == 1) {
+        if (!quiet_rank())
+            dtx_cli_print_help(stdout, current_cmd);
+        return 0;
+    }
+    if (!quiet_rank()) {
+        fprintf(stderr, "%s\n", msg);
+        dtx_cli_print_usage(stderr, current_cmd);
+    }
     return 2;
 }
 
@@ -77,7 +120,7 @@ static const char *opt(int argc, char **argv, const char *name)
 static int is_flag_with_value(const char *a)
 {
     static const char *const names[] = {"-o",       "--name",   "--mesh",    "--dtype",
-                                        "--index-base", "--source", "--target", "--obj-dir",
+                                        "--index-base", "--source", "--target",
                                         "--summary", "--tol", "--compress"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++)
         if (strcmp(a, names[i]) == 0)
@@ -501,20 +544,38 @@ static int cmd_run(int argc, char **argv)
 
 int main(int argc, char **argv)
 {
+    int done, rc;
     if (argc < 2)
         return usage(NULL);
+    if (strcmp(argv[1], "--help") == 0 || strcmp(argv[1], "-h") == 0 ||
+        (strcmp(argv[1], "help") == 0 && argc > 2 && argv[2][0] != '-'))
+        return cmd_help(argc, argv);
+    rc = check_options(argc, argv, &done);
+    if (done)
+        return rc;
+    if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
+        printf("dtx %s\n", DTX_VERSION);
+        return 0;
+    }
+    if (strcmp(argv[1], "help") == 0)
+        return cmd_help(argc, argv);
     /* A file-size limit (ulimit -f) must make a write fail with EFBIG and
      * a message, not kill the process half-way. */
     signal(SIGXFSZ, SIG_IGN);
     dtx_h5_init();
-    if (strcmp(argv[1], "import") == 0 && argc >= 3) {
-        if (strcmp(argv[2], "mesh") == 0)
+    if (strcmp(argv[1], "import") == 0) {
+        if (argc >= 3 && strcmp(argv[2], "mesh") == 0)
             return cmd_import_mesh(argc, argv);
-        if (strcmp(argv[2], "sequence") == 0)
+        if (argc >= 3 && strcmp(argv[2], "sequence") == 0)
             return cmd_import_sequence(argc, argv);
-        if (strcmp(argv[2], "markers") == 0)
+        if (argc >= 3 && strcmp(argv[2], "markers") == 0)
             return cmd_import_markers(argc, argv);
-        return usage("import what? mesh, sequence or markers");
+        /* Every import command's usage. */
+        fputs("dtx: import what? mesh, sequence or markers\n", stderr);
+        for (const dtx_cli_cmd *const *c = dtx_cli_commands(); *c; c++)
+            if (strncmp((*c)->name, "import ", 7) == 0)
+                dtx_cli_print_usage(stderr, *c);
+        return 2;
     }
     if (strcmp(argv[1], "run") == 0)
         return cmd_run(argc, argv);
@@ -534,13 +595,9 @@ int main(int argc, char **argv)
         return dtx_cmd_report(argc, argv);
     if (strcmp(argv[1], "generate") == 0)
         return dtx_cmd_generate(argc, argv);
-    if (strcmp(argv[1], "version") == 0 || strcmp(argv[1], "--version") == 0) {
-        printf("dtx %s\n", DTX_VERSION);
-        return 0;
-    }
-    if (strcmp(argv[1], "help") == 0 || strcmp(argv[1], "--help") == 0) {
-        fputs(usage_text, stdout);
-        return 0;
-    }
-    return usage("unknown command");
+    if (strcmp(argv[1], "rm") == 0)
+        return dtx_cmd_rm(argc, argv);
+    fprintf(stderr, "dtx: unknown command '%s'\n\n", argv[1]);
+    dtx_cli_print_overview(stderr);
+    return 2;
 }

@@ -673,7 +673,7 @@ dtx_status dtx_h5_commit_group(hid_t file, const char *tmp, const char *final, i
         return ferr(err, DTX_EINVAL, file, tmp, "nothing to commit (no such group)");
     if (link_exists(file, final)) {
         if (!replace)
-            return ferr(err, DTX_EINVAL, file, final, "already exists; remove it first");
+            return ferr(err, DTX_EINVAL, file, final, "already exists (remove it first: dtx rm)");
         if ((st = dtx_h5_remove(file, final, err)) != DTX_OK)
             return st;
     }
@@ -700,7 +700,7 @@ static dtx_status begin_group(hid_t file, const char *final, int allow_existing,
         return st;
     }
     if (!allow_existing && link_exists(file, final))
-        return ferr(err, DTX_EINVAL, file, final, "already exists; remove it first");
+        return ferr(err, DTX_EINVAL, file, final, "already exists (remove it first: dtx rm)");
     if ((st = dtx_h5_remove(file, tmp, err)) != DTX_OK)
         return st;
     parent_path(final, parent, sizeof parent);

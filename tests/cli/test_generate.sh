@@ -91,7 +91,7 @@ check "script with a missing dtx accepted" not env DTX="$scratch/nope" \
 check "thickness and subdivide" "$dtx" generate pebbles "$lion" "$scratch/stones.obj" \
     --pieces 300 --thickness 0.003 --subdivide 1 2> "$scratch/stones.err"
 check "stones: component count" grep -q ' 300 connected components' "$scratch/stones.err"
-check "dtx help lists generate" bash -c "'$dtx' help | grep -q 'dtx generate pebbles'"
+check "dtx help generate lists its generators" bash -c "'$dtx' help generate | grep -q 'dtx generate pebbles'"
 
 # ---------------------------------------------------------------- bad arguments
 # bad STATUS MESSAGE-PART ARGS...: dtx generate ARGS fails with STATUS, says

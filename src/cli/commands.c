@@ -1,0 +1,332 @@
+/*
+ * commands.c: the table of every `dtx` command: its one-line summary, usage,
+ * description, options (each with one line on what it does) and examples.
+ * `dtx help`, `dtx COMMAND --help`, the usage printed on a usage error and
+ * the check of a command line's options all come from here (options.h), so
+ * an option exists for a user exactly when it is listed here.
+ */
+#include "options.h"
+
+#include <stddef.h>
+
+/* ------------------------------------------------------------------ */
+/* import                                                              */
+/* ------------------------------------------------------------------ */
+
+static const dtx_cli_opt import_mesh_opts[] = {
+    {"-o", "OUT.h5", "the dtx file to add the mesh to (created when missing)"},
+    {"--name", "NAME", "the mesh's name: it becomes /meshes/NAME"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd import_mesh = {
+    "import mesh",
+    "add a rest mesh (OBJ, PLY or OFF) to a dtx file",
+    "dtx import mesh FILE.(obj|ply|off) -o OUT.h5 --name NAME",
+    "Reads the mesh, checks it (indices, finite coordinates, degenerate faces) and\n"
+    "stores it as /meshes/NAME.  Polygons are fan-triangulated with a warning.\n"
+    "A failed import leaves a new file removed and an existing file as it was.",
+    import_mesh_opts,
+    "dtx import mesh cat-reference.obj -o cat-lion.h5 --name cat",
+    2,
+};
+
+static const dtx_cli_opt import_sequence_opts[] = {
+    {"-o", "OUT.h5", "the dtx file to add the sequence to (created when missing)"},
+    {"--name", "NAME", "the sequence's name: it becomes /sequences/NAME"},
+    {"--mesh", "/meshes/MESH", "the rest mesh every frame must match (vertex count and faces)"},
+    {"--dtype", "float32|float64", "how positions are stored (default float32)"},
+    {"--compress", "none|gzip", "compression of the positions (default none: gzip saves ~1.4:1)"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd import_sequence = {
+    "import sequence",
+    "add an animation (a folder or a list of mesh files, one per frame)",
+    "dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
+    "                    [--dtype float32|float64] [--compress none|gzip]",
+    "A folder's mesh files are taken in natural order (cat-2 before cat-10).  Every\n"
+    "frame must have the rest mesh's vertex count and faces.",
+    import_sequence_opts,
+    "dtx import sequence poses/ -o cat-lion.h5 --name cat-poses --mesh /meshes/cat",
+    2,
+};
+
+static const dtx_cli_opt import_markers_opts[] = {
+    {"-o", "OUT.h5", "the dtx file to add the markers to (created when missing)"},
+    {"--name", "NAME", "the marker set's name: it becomes /markers/NAME"},
+    {"--index-base", "0|1", "whether the CSV's vertex indices start at 0 or 1 (or a line "
+                            "'# index_base: 0' in the file)"},
+    {"--source", "/meshes/A", "check the source indices against this mesh now"},
+    {"--target", "/meshes/B", "check the target indices against this mesh now"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd import_markers = {
+    "import markers",
+    "add source/target marker pairs from a CSV file",
+    "dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
+    "                   [--source /meshes/A] [--target /meshes/B]",
+    "The CSV has rows source_vertex,target_vertex[,label].  The index base is always\n"
+    "explicit: --index-base or a '# index_base: N' line.",
+    import_markers_opts,
+    "dtx import markers markers.csv --index-base 0 -o cat-lion.h5 --name cat-lion \\\n"
+    "    --source /meshes/cat --target /meshes/lion",
+    2,
+};
+
+/* ------------------------------------------------------------------ */
+/* run, keypoints                                                      */
+/* ------------------------------------------------------------------ */
+
+static const dtx_cli_opt run_opts[] = {
+    {"--resume", NULL, "continue the interrupted run of the same job (OUTPUT.partial)"},
+    {"--quiet", NULL, "print errors only (no progress, no warnings)"},
+    {"--summary", "FILE.json", "where to write the run summary (default OUTPUT.summary.json)"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd run = {
+    "run",
+    "run a transfer job (alone or under mpirun)",
+    "dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]",
+    "Reads the job (schemas/job.schema.json), computes or reuses each target's\n"
+    "correspondence, transfers every frame of every sequence onto every target and\n"
+    "writes OUTPUT (through OUTPUT.partial, renamed only when complete).",
+    run_opts,
+    "mpirun -np 2 dtx run jobs/cat-lion.json\n"
+    "dtx run job.json --resume",
+    1,
+};
+
+static const dtx_cli_opt keypoints_opts[] = {
+    {"--mesh", "/meshes/SRC", "the source rest mesh"},
+    {"--sequence", "/sequences/S", "a source sequence to learn from (repeatable)"},
+    {"--markers", "/markers/M", "markers that label the key points and start the correspondence"},
+    {"--target", "/meshes/T", "also map the key points onto this target (needs --markers)"},
+    {"--name", "NAME", "the key-point set's name (default: the mesh's name)"},
+    {"-o", "OUT.h5", "where to write /keypoints/NAME (default: FILE.h5 itself)"},
+    {"--candidates", "N", "candidate vertices evaluated (1..100000)"},
+    {"--eps", "E", "stop adding key points once the fit error is at most E (>= 0)"},
+    {"--max", "K", "most key points chosen (1..10000)"},
+    {"--training-frames", "N", "frames sampled from the sequences for the fit (default 32)"},
+    {"--csv", "OUT.csv", "also write the key points (and target partners) as a marker CSV"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd keypoints = {
+    "keypoints",
+    "choose key points of a source animation (biharmonic method)",
+    "dtx keypoints FILE.h5 --mesh /meshes/SRC --sequence /sequences/S [--sequence ...]\n"
+    "              [--markers /markers/M [--target /meshes/T]] [--name NAME] [-o OUT.h5]\n"
+    "              [--candidates N] [--eps E] [--max K] [--training-frames N]\n"
+    "              [--csv OUT.csv]   (alone or under mpirun)",
+    "Automatic key points (Yang et al. 2018): the vertices whose motion best\n"
+    "explains the animation through bounded biharmonic weights.",
+    keypoints_opts,
+    "dtx keypoints cat-lion.h5 --mesh /meshes/cat --sequence /sequences/cat-poses --max 20",
+    1,
+};
+
+/* ------------------------------------------------------------------ */
+/* export, inspect, validate, diff                                     */
+/* ------------------------------------------------------------------ */
+
+static const dtx_cli_opt export_opts[] = {
+    {"--obj-dir", "DIR", "one OBJ per exported frame, DIR/<name>-NNNNN.obj (1-based)"},
+    {"--obj-rest", "REST.obj", "the mesh as OBJ (what a PC2 cache is applied to)"},
+    {"--pc2", "OUT.pc2", "a PC2 point cache, one sample per exported frame"},
+    {"--glb", "OUT.glb", "glTF 2.0 binary: the mesh, the frames as morph targets, an animation"},
+    {"--stride", "K", "export frames 0, K, 2K, ... (default 1)"},
+    {"--start-frame", "F", "the PC2's start frame (default 1)"},
+    {"--fps", "N", "the glb animation's frame rate (default 24)"},
+    {"--step", NULL, "glb: step between frames instead of interpolating"},
+    {"--max-frames", "N", "glb: most frames allowed (default 1024)"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd export_ = {
+    "export",
+    "write a result or sequence as OBJ frames, PC2 or glb",
+    "dtx export FILE.h5 (/results/TARGET/SEQUENCE | /sequences/SEQUENCE) [--stride K]\n"
+    "           [--obj-dir DIR] [--obj-rest REST.obj] [--pc2 OUT.pc2 [--start-frame F]]\n"
+    "           [--glb OUT.glb [--fps N] [--step] [--max-frames N]]",
+    "Every file is written atomically; a result must have all its frames.",
+    export_opts,
+    "dtx export out.h5 /results/lion/cat-poses --obj-rest lion.obj --pc2 lion.pc2\n"
+    "dtx export out.h5 /results/lion/cat-poses --glb lion.glb",
+    1,
+};
+
+static const dtx_cli_opt inspect_opts[] = {
+    {"--json", NULL, "print the same as JSON"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd inspect = {
+    "inspect",
+    "list what a dtx file holds",
+    "dtx inspect FILE.h5 [--json]",
+    "Meshes, sequences, markers, correspondences and results with their provenance,\n"
+    "and the run's timings when FILE.h5.summary.json is next to it.  Writes nothing.",
+    inspect_opts,
+    "dtx inspect build/demo/cat-lion-result.h5",
+    1,
+};
+
+static const dtx_cli_opt no_opts[] = {{NULL, NULL, NULL}};
+
+static const dtx_cli_cmd validate = {
+    "validate",
+    "check a dtx file against the layout (schemas/hdf5-layout-v1.md)",
+    "dtx validate FILE.h5",
+    "Checks every object's shapes, types, index ranges and flags, and that the\n"
+    "frames marked done hold finite positions.  Exit 1 with every problem listed.",
+    no_opts,
+    "dtx validate build/demo/cat-lion-result.h5",
+    1,
+};
+
+static const dtx_cli_opt diff_opts[] = {
+    {"--tol", "REL", "largest difference allowed, relative to the largest coordinate "
+                     "(default 1e-12)"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd diff = {
+    "diff",
+    "compare one result in two files (exit 1 if they differ)",
+    "dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]",
+    NULL,
+    diff_opts,
+    "dtx diff a.h5 b.h5 /results/lion/cat-poses --tol 0",
+    1,
+};
+
+/* ------------------------------------------------------------------ */
+/* render, report, generate, version                                   */
+/* ------------------------------------------------------------------ */
+
+static const dtx_cli_opt render_opts[] = {
+    {"-o", "OUT.png", "the picture to write"},
+    {"--frames", "0,4,8", "the frames to draw (0-based)"},
+    {"--count", "N", "draw N frames spread over the sequence (default 10)"},
+    {"--cols", "C", "panels per row"},
+    {"--width", "W", "panel width in pixels"},
+    {"--height", "H", "panel height in pixels"},
+    {"--view", "side|front|back|top|AZ,EL", "camera direction (default 55,15 degrees)"},
+    {"--up", "x|y|z", "the mesh's up axis (default y)"},
+    {"--flat", NULL, "flat shading instead of smooth"},
+    {"--color", "component|RRGGBB", "colour per connected component, or one colour"},
+    {"--supersample", "1..4", "antialiasing factor"},
+    {"--no-source", NULL, "a result without the source row above it"},
+    {"--no-labels", NULL, "no frame numbers on the panels"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd render = {
+    "render",
+    "draw a mesh, sequence or result as a PNG contact sheet",
+    "dtx render (FILE.h5 [/results/T/S | /sequences/S | /meshes/M] | MESH.(obj|ply|off))\n"
+    "           -o OUT.png [--frames 0,4,8 | --count N] [--cols C] [--width W] [--height H]\n"
+    "           [--view side|front|back|top|AZ,EL] [--up x|y|z] [--flat]\n"
+    "           [--color component|RRGGBB] [--supersample 1..4] [--no-source] [--no-labels]",
+    "A result is drawn with its source sequence's frames in a row above it.",
+    render_opts,
+    "dtx render out.h5 /results/lion/cat-poses -o sheet.png --count 5",
+    1,
+};
+
+static const dtx_cli_opt report_opts[] = {
+    {"-o", "REPORT.md", "the page to write (default FILE.report.md, pictures in FILE.report-pictures/)"},
+    {"--summary", "FILE.json", "the run summary to read (default FILE.h5.summary.json)"},
+    {"--count", "N", "frames per contact sheet (1..1024)"},
+    {"--no-pictures", NULL, "no contact sheets"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd report = {
+    "report",
+    "write a Markdown page on a run: phases, speed, results, residuals, pictures",
+    "dtx report FILE.h5 [-o REPORT.md] [--summary FILE.json] [--count N] [--no-pictures]",
+    "Reads the run summary that dtx run leaves next to its output for the phases\n"
+    "and speed; every result gets its provenance, a contact sheet and its residuals.",
+    report_opts,
+    "dtx report build/demo/cat-lion-result.h5",
+    1,
+};
+
+static const dtx_cli_opt generate_opts[] = {
+    {"--pieces", "N", "pebbles: number of pieces"},
+    {"--thickness", "T", "pebbles: thickness of each piece"},
+    {"--subdivide", "L", "pebbles: subdivision levels first"},
+    {"--gap", "G", "pebbles, eyes: gap between pieces"},
+    {"--axis", "x|y|z", "garment, reshape: the up axis"},
+    {"--lo", "LO", "garment: lower bound, reshape: top of the legs (fractions of the extent on --axis)"},
+    {"--hi", "HI", "garment: upper bound (fraction of the extent on --axis)"},
+    {"--offset", "D", "garment: distance of the shell off the body"},
+    {"--thicken", "S", "reshape: thickening factor"},
+    {"--legs", "L", "reshape: leg lengthening factor"},
+    {"--anchors", "I,J,...", "eyes: 0-based vertices the eyes sit at"},
+    {"--radius", "R", "eyes: eye radius"},
+    {"--map", "MAP.csv", "also write generated_vertex,original_vertex rows"},
+    {"--markers", "IN.csv", "a marker file to rewrite for the new mesh"},
+    {"--index-base", "0|1", "the index base of --markers"},
+    {"--markers-out", "OUT.csv", "where to write the rewritten markers"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd generate = {
+    "generate",
+    "make test targets from a mesh: pebbles, garment, eyes, reshape",
+    "dtx generate pebbles IN OUT.obj --pieces N [--gap G] [--thickness T] [--subdivide L]\n"
+    "dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"
+    "dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"
+    "dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"
+    "    each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]",
+    NULL,
+    generate_opts,
+    "dtx generate pebbles lion.obj pebble-lion.obj --pieces 240",
+    1,
+};
+
+static const dtx_cli_cmd rm = {
+    "rm",
+    "remove objects (meshes, sequences, markers, results, ...) from a dtx file",
+    "dtx rm FILE.h5 PATH...",
+    "Removes every PATH (/meshes/NAME, /sequences/NAME, /markers/NAME, /keypoints/NAME,\n"
+    "/correspondences/NAME, /results/TARGET/SEQUENCE or all of /results/TARGET), or\n"
+    "none of them: an object that something left in the file refers to (a sequence's\n"
+    "rest mesh, a result's target) is refused, naming the referrer.  HDF5 keeps the\n"
+    "freed space for later objects of the same file; `h5repack FILE.h5 NEW.h5` writes\n"
+    "a compact copy.",
+    no_opts,
+    "dtx rm cat-lion.h5 /sequences/cat-poses\n"
+    "dtx import mesh lion-v2.obj -o cat-lion.h5 --name lion   # after: dtx rm cat-lion.h5 /meshes/lion",
+    1,
+};
+
+static const dtx_cli_cmd version = {
+    "version", "print the version", "dtx version", NULL, no_opts, "dtx --version", 1,
+};
+
+static const dtx_cli_cmd help = {
+    "help",
+    "describe the commands, or one command and its options",
+    "dtx help [COMMAND]",
+    NULL,
+    no_opts,
+    "dtx help export\ndtx help import sequence",
+    1,
+};
+
+static const dtx_cli_cmd *const commands[] = {
+    &import_mesh, &import_sequence, &import_markers, &run,      &keypoints,
+    &export_,     &inspect,         &validate,       &diff,     &render,
+    &report,      &generate,        &rm,             &version,        &help,     NULL,
+};
+
+const dtx_cli_cmd *const *dtx_cli_commands(void)
+{
+    return commands;
+}
