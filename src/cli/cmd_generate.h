@@ -11,12 +11,19 @@
     "  dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"            \
     "  dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"                \
     "  dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"     \
-    "      each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]\n"
+    "      each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]\n" \
+    "  dtx generate uvsplit IN OUT.obj [--materials 1|2]\n"
 
 /* Runs `dtx generate KIND IN OUT [options]` with argv[1] == "generate".
  * Prints what it made (or "dtx: error: ..." / a usage message) on stderr.
  * Returns the exit status: 0 on success, 1 on an error (no output file is
  * left behind), 2 on a usage error (nothing is read or written). */
 int dtx_cmd_generate(int argc, char **argv);
+
+/* `dtx generate uvsplit IN OUT.obj [--materials 1|2]` (cmd_uvsplit.c):
+ * IN split as an export splits it along a cylindrical UV seam and, with 2
+ * materials (the default), where they meet (core/uvsplit.h); OUT.obj gets
+ * v, vt, vn, usemtl and an mtllib line naming OUT.mtl, written beside it. */
+int dtx_cmd_generate_uvsplit(int argc, char **argv);
 
 #endif /* DTX_CMD_GENERATE_H */
