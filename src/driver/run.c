@@ -1180,8 +1180,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         meta.target_mesh = tgtdesc;
         meta.markers = mkdesc;
         meta.parameters = params;
-        st = dtx_h5_write_mesh(r->out, tc->mesh_path, dtx_weld_asset(&tc->weld, &tc->mesh),
-                               tgtdesc, err);
+        st = dtx_weld_write_asset(r->out, tc->mesh_path, &tc->weld, &tc->mesh, tj->file,
+                                  tj->mesh, tgtdesc, err);
         /* Only sp04's correspondence has a place in the layout (with its
          * deformed source); the multicomponent one is recomputed per run. */
         if (st == DTX_OK && tc->corr.deformed_src)

@@ -1,6 +1,8 @@
 /* weld_setup.c: a run's meshes welded along their seams (weld_setup.h). */
 #include "weld_setup.h"
 
+#include "h5layout.h"
+#include "h5mesh_attrs.h"
 #include "weld.h"
 
 #include <stdlib.h>
@@ -87,4 +89,23 @@ void dtx_weld_ctx_free(dtx_weld_ctx *w)
     free(w->rep);
     dtx_mesh_free(&w->asset);
     w->map = w->rep = NULL;
+}
+
+dtx_status dtx_weld_write_asset(hid_t out, const char *group, const dtx_weld_ctx *w,
+                                const dtx_mesh *welded, const char *file, const char *mesh,
+                                const char *source, dtx_error *err)
+{
+    const dtx_mesh *m = dtx_weld_asset(w, welded);
+    dtx_mesh_attrs a;
+    hid_t f = H5I_INVALID_HID;
+    dtx_status st = dtx_h5_open(file, MPI_COMM_NULL, 0, &f, err);
+    if (st == DTX_OK)
+        st = dtx_h5_read_mesh_attrs(f, mesh, m->nv, m->nf, &a, err);
+    if (f >= 0)
+        dtx_h5_close(&f, NULL);
+    if (st != DTX_OK)
+        return st;
+    st = dtx_h5_write_mesh_with(out, group, m, &a, source, err);
+    dtx_mesh_attrs_free(&a);
+    return st;
 }

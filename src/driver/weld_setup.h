@@ -14,6 +14,8 @@
 #include "mesh.h"
 #include "status.h"
 
+#include <hdf5.h>
+
 #include <stdint.h>
 
 typedef struct {
@@ -50,6 +52,14 @@ void dtx_weld_source_frames(const dtx_weld_ctx *w, double *X, int64_t n);
 /* n result frames X (n x nw x 3) to the asset's order (n x nv x 3, in
  * place: X must have room).  Nothing when nothing was welded. */
 void dtx_weld_result_frames(const dtx_weld_ctx *w, double *X, int64_t n);
+
+/* Writes the target mesh into the output as group `group`: the asset's
+ * vertices (dtx_weld_asset) with the attributes its group in `file` holds
+ * (UVs, normals, materials, colours: h5mesh_attrs.h), so results in the
+ * asset's order keep them.  Collective like dtx_h5_write_mesh. */
+dtx_status dtx_weld_write_asset(hid_t out, const char *group, const dtx_weld_ctx *w,
+                                const dtx_mesh *welded, const char *file, const char *mesh,
+                                const char *source, dtx_error *err);
 
 void dtx_weld_ctx_free(dtx_weld_ctx *w);
 

@@ -98,6 +98,17 @@ dtx_status dtx_mesh_attrs_validate(const dtx_mesh_attrs *a, int32_t nv, int32_t 
 
 /* ------------------------------------------------------------ reading */
 
+/* The attributes of an OBJ file whose mesh (nf triangles after fan
+ * triangulation) dtx_obj_read has read: vt (u v [w]) and vn lines, the
+ * t and n parts of face references (1-based or negative), usemtl (one
+ * material index per triangle, -1 before the first usemtl; names in order
+ * of first use) and mtllib (the rest of its line, by reference).  UVs (or
+ * normals) are kept only when every face corner references one.  *a is
+ * zeroed first; free with dtx_mesh_attrs_free. */
+dtx_status dtx_obj_read_attrs(const char *path, int32_t nf, dtx_mesh_attrs *a, dtx_error *err);
+dtx_status dtx_obj_parse_attrs(const char *name, const char *buf, size_t len, int32_t nf,
+                               dtx_mesh_attrs *a, dtx_error *err);
+
 /* Reads a mesh, choosing the format by the extension of path (.obj, .ply,
  * .off; case-insensitive).  Another extension is DTX_EINVAL.  out is
  * overwritten (not freed first); the caller frees it with dtx_mesh_free. */

@@ -53,6 +53,8 @@ for t in lion-seam lion-uv; do
 done
 check "the output's target mesh is the asset's (5116 vertices)" bash -c \
     "'$DTX' inspect sp04.h5 | grep -E 'lion-uv' | grep -q 5116"
+check "import keeps uv, normals, materials and mtllib; the output's target mesh has them" bash -c \
+    "for f in in.h5 sp04.h5; do h5dump -n \$f | grep -q '/meshes/lion-uv/uv_faces' && h5dump -n \$f | grep -q '/meshes/lion-uv/normal_faces' && h5dump -a /meshes/lion-uv/material/material_names \$f | grep -q dtx_upper && h5dump -a /meshes/lion-uv/mtllib \$f | grep -q lion-uv.mtl || exit 1; done"
 
 # The silent failure of the issue: without welding (weld_tolerance -1) the
 # one-piece split is accepted with a warning and its seam tears open.
