@@ -388,6 +388,8 @@ int dtx_cmd_generate(int argc, char **argv)
     int r, base = 0, wrote_obj = 0, wrote_map = 0;
     dtx_status st;
 
+    if (argc >= 3 && strcmp(argv[2], "uvsplit") == 0)
+        return dtx_cmd_generate_uvsplit(argc, argv);
     if ((r = parse_args(argc, argv, &g)) != 0 || (r = parse_params(&g, &prm)) != 0)
         return r;
     mp = val(&g, "--map");

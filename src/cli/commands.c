@@ -273,17 +273,19 @@ static const dtx_cli_opt generate_opts[] = {
     {"--markers", "IN.csv", "a marker file to rewrite for the new mesh"},
     {"--index-base", "0|1", "the index base of --markers"},
     {"--markers-out", "OUT.csv", "where to write the rewritten markers"},
+    {"--materials", "1|2", "uvsplit: 2 also splits the mesh where two materials meet (default 2)"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd generate = {
     "generate",
-    "make test targets from a mesh: pebbles, garment, eyes, reshape",
+    "make test targets from a mesh: pebbles, garment, eyes, reshape, uvsplit",
     "dtx generate pebbles IN OUT.obj --pieces N [--gap G] [--thickness T] [--subdivide L]\n"
     "dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"
     "dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"
     "dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"
-    "    each also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]",
+    "dtx generate uvsplit IN OUT.obj [--materials 1|2]   (OBJ with vt/vn/usemtl and a .mtl)\n"
+    "    pebbles, garment, eyes and reshape also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]",
     NULL,
     generate_opts,
     "dtx generate pebbles lion.obj pebble-lion.obj --pieces 240",

@@ -15,6 +15,7 @@
 #include "h5layout.h"
 #include "job.h"
 #include "meshfile.h"
+#include "h5mesh_attrs.h"
 #include "options.h"
 
 #include <dirent.h>
@@ -181,6 +182,7 @@ static int cmd_import_mesh(int argc, char **argv)
     hid_t f = H5I_INVALID_HID;
     int created = 0;
     char group[DTX_H5_PATH_MAX];
+    dtx_mesh_attrs attrs = {0};
     dtx_status st;
     if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
         return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
@@ -193,10 +195,20 @@ static int cmd_import_mesh(int argc, char **argv)
         return fail(&err);
     }
     snprintf(group, sizeof group, "/meshes/%s", name);
+    {
+        /* OBJ attributes (vt, vn, usemtl, mtllib) are kept with the mesh. */
+        size_t n = strlen(pos[0]);
+        if (n > 4 && strcasecmp(pos[0] + n - 4, ".obj") == 0 &&
+            (st = dtx_obj_read_attrs(pos[0], m.nf, &attrs, &err)) != DTX_OK) {
+            dtx_mesh_free(&m);
+            return fail(&err);
+        }
+    }
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
-        st = dtx_h5_write_mesh(f, group, &m, pos[0], &err);
+        st = dtx_h5_write_mesh_with(f, group, &m, &attrs, pos[0], &err);
     dtx_mesh_free(&m);
+    dtx_mesh_attrs_free(&attrs);
     if (st == DTX_OK)
         fprintf(stderr, "dtx: %s -> %s:%s\n", pos[0], out, group);
     return finish_import(out, &f, created, st, &err);

@@ -47,6 +47,7 @@
 #include "keypoint_setup.h"
 #include "keypoints.h"
 #include "meshfile.h"
+#include "weld_setup.h"
 #include "progress.h"
 #include "springs.h"
 #include "transfer_bh.h"
@@ -108,6 +109,7 @@ typedef struct {
      * marker set, stored in the output at kp_path */
     dtx_markers keys;
     char kp_path[DTX_H5_PATH_MAX];
+    dtx_weld_ctx weld; /* the asset's vertices (mesh is welded along seams) */
 } target_ctx;
 
 typedef struct {
@@ -135,6 +137,7 @@ typedef struct {
     const dtx_run_opts *opts;
     dtx_job job;
     dtx_mesh src;
+    dtx_weld_ctx src_weld; /* the source asset's vertices (src is welded) */
     hid_t src_file, out;
     char partial[4200];
     char run_key[17];
@@ -585,11 +588,11 @@ static dtx_status read_sequences(run_state *r, dtx_error *err)
         if (st != DTX_OK)
             break;
         sc->open = 1;
-        if (sc->seq.nv != r->src.nv)
+        if (sc->seq.nv != r->src_weld.nv)
             st = dtx_seterr(err, DTX_EFORMAT,
                             "%s: %s has %d vertices per frame but the source mesh %s has %d",
                             r->job.source_file, sc->path, (int)sc->seq.nv, r->job.source_mesh,
-                            (int)r->src.nv);
+                            (int)r->src_weld.nv);
     }
     return st;
 }
@@ -662,6 +665,11 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
                      tc->tj->markers.file ? tc->tj->markers.file : "?",
                      tc->tj->markers.path ? tc->tj->markers.path : "?", tc->tj->name);
         st = read_mesh_from(tc->tj->file, tc->tj->mesh, &tc->mesh, err);
+        if (st == DTX_OK) {
+            char wwhat[4400];
+            snprintf(wwhat, sizeof wwhat, "%s:%s", tc->tj->file, tc->tj->mesh);
+            st = dtx_weld_setup(&tc->mesh, tc->tj->weld_tolerance, wwhat, &tc->weld, err);
+        }
         if (st == DTX_OK)
             st = check_mesh(r, tc->tj->file, tc->tj->mesh, &tc->mesh, 1, err);
         if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS) {
@@ -689,7 +697,9 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
         if (st == DTX_OK)
             st = read_markers(tc->tj, &tc->mk, err);
         if (st == DTX_OK)
-            st = dtx_markers_validate(&tc->mk, r->src.nv, tc->mesh.nv, what, err);
+            st = dtx_markers_validate(&tc->mk, r->src_weld.nv, tc->weld.nv, what, err);
+        if (st == DTX_OK) /* markers name the assets' vertices */
+            dtx_weld_markers(&tc->mk, &r->src_weld, &tc->weld);
         if (st == DTX_OK)
             st = dtx_markers_check_referenced(&tc->mk, &r->src, what, err);
         if (st == DTX_OK)
@@ -747,6 +757,11 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
         st = dtx_h5_open(r->job.source_file, MPI_COMM_NULL, 0, &r->src_file, err);
     if (st == DTX_OK)
         st = dtx_h5_read_mesh(r->src_file, r->job.source_mesh, &r->src, err);
+    if (st == DTX_OK) {
+        char wwhat[4400];
+        snprintf(wwhat, sizeof wwhat, "%s:%s", r->job.source_file, r->job.source_mesh);
+        st = dtx_weld_setup(&r->src, r->job.source_weld_tolerance, wwhat, &r->src_weld, err);
+    }
     if (st == DTX_OK)
         st = check_mesh(r, r->job.source_file, r->job.source_mesh, &r->src, 0, err);
     if (st == DTX_OK)
@@ -847,6 +862,8 @@ static dtx_status select_keypoints(run_state *r, dtx_error *err)
     if (st == DTX_OK)
         st = dtx_read_training_frames(seqs, r->ns, bh->training_frames, &r->ntrain, &r->Xtrain,
                                       err);
+    if (st == DTX_OK)
+        dtx_weld_source_frames(&r->src_weld, r->Xtrain, r->ntrain);
     free(seqs);
     if (st != DTX_OK)
         dtx_error_prefix(err, "%s: training frames", r->job.source_file);
@@ -1163,7 +1180,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         meta.target_mesh = tgtdesc;
         meta.markers = mkdesc;
         meta.parameters = params;
-        st = dtx_h5_write_mesh(r->out, tc->mesh_path, &tc->mesh, tgtdesc, err);
+        st = dtx_weld_write_asset(r->out, tc->mesh_path, &tc->weld, &tc->mesh, tj->file,
+                                  tj->mesh, tgtdesc, err);
         /* Only sp04's correspondence has a place in the layout (with its
          * deformed source); the multicomponent one is recomputed per run. */
         if (st == DTX_OK && tc->corr.deformed_src)
@@ -1185,7 +1203,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             prov.target_mesh = tc->mesh_path;
             prov.correspondence = tc->corr.deformed_src ? tc->corr_path : "";
             st = dtx_h5_result_create(r->out, res_path, &prov, r->sq[s].seq.nframes,
-                                      tc->mesh.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
+                                      tc->weld.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
                                       r->align, 0, &rc->res, err);
             rc->open = st == DTX_OK;
             if (st == DTX_OK && iterative_method(&r->job))
@@ -1224,12 +1242,12 @@ static dtx_status reopen_output(run_state *r, dtx_error *err)
                 st = dtx_h5_result_open(r->out, final, 1, &rc->res, err);
                 rc->open = st == DTX_OK;
                 if (st == DTX_OK && (rc->res.nframes != r->sq[s].seq.nframes ||
-                                     rc->res.nv != r->tg[t].mesh.nv))
+                                     rc->res.nv != r->tg[t].weld.nv))
                     st = dtx_seterr(err, DTX_EFORMAT,
                                     "%s: %s has %lld frames of %d vertices, the job needs %lld "
                                     "of %d: cannot resume",
                                     r->partial, tmp, (long long)rc->res.nframes, (int)rc->res.nv,
-                                    (long long)r->sq[s].seq.nframes, (int)r->tg[t].mesh.nv);
+                                    (long long)r->sq[s].seq.nframes, (int)r->tg[t].weld.nv);
             } else if (dtx_h5_read_attr_int(r->out, final, "complete", &complete, err) ==
                            DTX_OK &&
                        complete == 1) {
@@ -1339,8 +1357,9 @@ static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *
         char path[4200];
         snprintf(path, sizeof path, "%s/%s-%05lld.obj", dir, tc->tj->name,
                  (long long)(f0 + i + 1));
-        st = dtx_obj_write(path, Xt + (size_t)i * 3 * tc->mesh.nv, tc->mesh.nv, tc->mesh.F,
-                           tc->mesh.nf, "deformation transfer result (dtx)", err);
+        const dtx_mesh *am = dtx_weld_asset(&tc->weld, &tc->mesh);
+        st = dtx_obj_write(path, Xt + (size_t)i * 3 * am->nv, am->nv, am->F, am->nf,
+                           "deformation transfer result (dtx)", err);
     }
     return st;
 }
@@ -1461,8 +1480,12 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
         t0 = wtime();
         st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
         t1 = wtime();
-        if (st == DTX_OK && n > 0)
+        if (st == DTX_OK && n > 0) {
+            dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
             st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, fb, err);
+            if (st == DTX_OK) /* twins identical, in the asset's order */
+                dtx_weld_result_frames(&tc->weld, fb->Xt, n);
+        }
         if (st == DTX_OK && k == nseg_max / 2)
             st = injected_fault(r, "transfer", err);
         t2 = wtime();
@@ -1643,8 +1666,8 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
     if (fb.block % r->align)
         fb.block += r->align - fb.block % r->align;
     for (int t = 0; t < r->nt; t++)
-        maxnv = r->tg[t].mesh.nv > maxnv ? r->tg[t].mesh.nv : maxnv;
-    fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src.nv, 3 * sizeof *fb.Xs, 0);
+        maxnv = r->tg[t].weld.nv > maxnv ? r->tg[t].weld.nv : maxnv;
+    fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src_weld.nv, 3 * sizeof *fb.Xs, 0);
     fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
     if (r->job.method == DTX_METHOD_SPRINGS)
@@ -1680,7 +1703,7 @@ static dtx_status transfer_all(run_state *r, dtx_error *err)
             pin_pos = dtx_alloc((size_t)tj->npins, 3 * sizeof *pin_pos, 0);
             if (pin_idx && pin_pos)
                 for (int32_t i = 0; i < tj->npins; i++) {
-                    pin_idx[i] = tj->pins[i].vertex;
+                    pin_idx[i] = dtx_weld_index(&tc->weld, tj->pins[i].vertex);
                     memcpy(pin_pos + 3 * i, tj->pins[i].pos, 3 * sizeof *pin_pos);
                 }
         }
@@ -1967,10 +1990,12 @@ static void release(run_state *r)
         dtx_corr_free(&r->tg[t].corr);
         dtx_markers_free(&r->tg[t].mk);
         dtx_mesh_free(&r->tg[t].mesh);
+        dtx_weld_ctx_free(&r->tg[t].weld);
     }
     if (r->src_file >= 0)
         dtx_h5_close(&r->src_file, NULL);
     dtx_mesh_free(&r->src);
+    dtx_weld_ctx_free(&r->src_weld);
     free(r->Xtrain);
     dtx_kp_result_free(&r->kp);
     free(r->tg);

@@ -10,6 +10,7 @@
  */
 #define _GNU_SOURCE 1 /* fallocate */
 #include "h5layout.h"
+#include "h5mesh_attrs.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -1175,6 +1176,13 @@ static dtx_status read_whole(hid_t file, hid_t dset, const char *path, const hsi
 dtx_status dtx_h5_write_mesh(hid_t file, const char *group, const dtx_mesh *m,
                              const char *source, dtx_error *err)
 {
+    return dtx_h5_write_mesh_with(file, group, m, NULL, source, err);
+}
+
+dtx_status dtx_h5_write_mesh_with(hid_t file, const char *group, const dtx_mesh *m,
+                                  const dtx_mesh_attrs *attrs, const char *source,
+                                  dtx_error *err)
+{
     char tmp[DTX_H5_PATH_MAX], hex[17];
     hid_t g = H5I_INVALID_HID;
     hsize_t vd[2] = {(hsize_t)m->nv, 3}, fd[2] = {(hsize_t)m->nf, 3};
@@ -1191,7 +1199,8 @@ dtx_status dtx_h5_write_mesh(hid_t file, const char *group, const dtx_mesh *m,
         (st = dtx_h5_write_attr_str(g, ".", "source", source, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_int(g, ".", "nv", m->nv, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_int(g, ".", "nf", m->nf, err)) != DTX_OK ||
-        (st = dtx_h5_write_attr_str(g, ".", "content_hash", hex, err)) != DTX_OK)
+        (st = dtx_h5_write_attr_str(g, ".", "content_hash", hex, err)) != DTX_OK ||
+        (st = dtx_h5_write_mesh_attrs(g, group, attrs, m->nv, m->nf, err)) != DTX_OK)
         goto done;
     CLOSE_ID(H5Gclose, g);
     st = dtx_h5_commit_group(file, tmp, group, 0, err);

@@ -440,6 +440,10 @@ static dtx_status fill_target(fillctx *f, const cJSON *t, int index, dtx_job_tar
     ib = get(markers, "index_base");
     tg->markers.index_base = cJSON_IsNumber(ib) ? (int)ib->valuedouble : -1;
 
+    {
+        const cJSON *wt = get(t, "weld_tolerance");
+        tg->weld_tolerance = cJSON_IsNumber(wt) ? wt->valuedouble : 0;
+    }
     tr = enum_index(get_str(t, "translation"), translation_names, 3);
     tg->translation = tr < 0 ? DTX_TRANSLATION_FIXED : (dtx_translation)tr;
 
@@ -478,6 +482,10 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
     if ((st = fill_path(f, src, "file", &job->source_file)) ||
         (st = fill_str(f, src, "mesh", &job->source_mesh)))
         return st;
+    {
+        const cJSON *wt = get(src, "weld_tolerance");
+        job->source_weld_tolerance = cJSON_IsNumber(wt) ? wt->valuedouble : 0;
+    }
     x = get(src, "sequences");
     job->sequences = dtx_alloc((size_t)cJSON_GetArraySize(x), sizeof *job->sequences, 1);
     if (!job->sequences)

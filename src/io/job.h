@@ -67,6 +67,7 @@ typedef struct {
     dtx_translation translation;
     int32_t npins;
     dtx_pin *pins;
+    double weld_tolerance; /* [0] weld twins within this distance; < 0: no welding */
 } dtx_job_target;
 
 /* sp04 parameters (defaults in brackets). */
@@ -127,6 +128,7 @@ typedef struct {
     char *source_mesh;    /* HDF5 path */
     int32_t nsequences;
     char **sequences;     /* HDF5 paths */
+    double source_weld_tolerance; /* [0] as dtx_job_target.weld_tolerance */
 
     int32_t ntargets;
     dtx_job_target *targets;

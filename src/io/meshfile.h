@@ -57,7 +57,57 @@ typedef struct {
     void *ctx;
 } dtx_warner;
 
+/* ------------------------------------------------------------ attributes */
+
+/* What an asset carries besides positions and faces (all optional: a NULL
+ * array is absent).  Per-corner attributes have their own index arrays,
+ * nf x 3 like F, so vertices split along seams need not be split here:
+ *   uv: nuv x 2 doubles, uv_faces: nf x 3 int32 into uv;
+ *   normals: nn x 3 doubles, normal_faces: nf x 3 int32 into normals;
+ *   material: nf int32 in [0, nmat) or -1 (no material), with nmat names;
+ *   mtllib: the OBJ material library, kept by reference (a file name);
+ *   colors: nv x ncolor (3 or 4) doubles in [0, 1], per vertex.
+ * Free with dtx_mesh_attrs_free. */
+typedef struct {
+    int32_t nuv;
+    double *uv;
+    int32_t *uv_faces;
+    int32_t nn;
+    double *normals;
+    int32_t *normal_faces;
+    int32_t nmat;
+    int32_t *material;
+    char **material_names;
+    char *mtllib;
+    int32_t ncolor;
+    double *colors;
+} dtx_mesh_attrs;
+
+/* Frees every array and zeroes *a.  Accepts NULL. */
+void dtx_mesh_attrs_free(dtx_mesh_attrs *a);
+
+/* 1 when a holds anything. */
+int dtx_mesh_attrs_any(const dtx_mesh_attrs *a);
+
+/* Checks a against a mesh of nv vertices and nf faces: counts >= 0, index
+ * arrays present with their data and in range, material in [-1, nmat),
+ * names present, finite values, colour channels 3 or 4.  what names the
+ * mesh in the message. */
+dtx_status dtx_mesh_attrs_validate(const dtx_mesh_attrs *a, int32_t nv, int32_t nf,
+                                   const char *what, dtx_error *err);
+
 /* ------------------------------------------------------------ reading */
+
+/* The attributes of an OBJ file whose mesh (nf triangles after fan
+ * triangulation) dtx_obj_read has read: vt (u v [w]) and vn lines, the
+ * t and n parts of face references (1-based or negative), usemtl (one
+ * material index per triangle, -1 before the first usemtl; names in order
+ * of first use) and mtllib (the rest of its line, by reference).  UVs (or
+ * normals) are kept only when every face corner references one.  *a is
+ * zeroed first; free with dtx_mesh_attrs_free. */
+dtx_status dtx_obj_read_attrs(const char *path, int32_t nf, dtx_mesh_attrs *a, dtx_error *err);
+dtx_status dtx_obj_parse_attrs(const char *name, const char *buf, size_t len, int32_t nf,
+                               dtx_mesh_attrs *a, dtx_error *err);
 
 /* Reads a mesh, choosing the format by the extension of path (.obj, .ply,
  * .off; case-insensitive).  Another extension is DTX_EINVAL.  out is
@@ -118,6 +168,16 @@ dtx_status dtx_obj_write(const char *path, const double *V, int32_t nv, const in
  * %.9g (round-trips float32 exactly). */
 dtx_status dtx_obj_write_f32(const char *path, const float *V, int32_t nv, const int32_t *F,
                              int32_t nf, const char *comment, dtx_error *err);
+
+/* Writes an OBJ file as dtx_obj_write, with the attributes a carries (a
+ * may be NULL): `mtllib`, `vt` and `vn` lines, faces `f v/t/n` and
+ * `usemtl` before each run of faces with the same material.  a is checked
+ * with dtx_mesh_attrs_validate before the file is created.  V: nv x 3
+ * doubles (Vd) or floats (Vf): exactly one non-NULL.  Normals are
+ * written as a holds them (not recomputed for deformed positions). */
+dtx_status dtx_obj_write_attrs(const char *path, const double *Vd, const float *Vf, int32_t nv,
+                               const int32_t *F, int32_t nf, const dtx_mesh_attrs *a,
+                               const char *comment, dtx_error *err);
 
 /* ------------------------------------------------------------ markers */
 

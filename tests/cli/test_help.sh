@@ -42,6 +42,8 @@ for src in "$DTX_SRC"/src/cli/cmd_*.c "$DTX_SRC"/src/cli/main.c; do
     if [ "$base" = main ]; then
         helps="help-import-mesh.txt help-import-sequence.txt help-import-markers.txt help-run.txt
                help-validate.txt help-diff.txt"
+    elif [ "$base" = cmd_uvsplit ]; then
+        helps="help-generate.txt"  # dtx generate uvsplit
     else
         helps="help-${base#cmd_}.txt"
     fi

@@ -417,7 +417,7 @@ static void test_unknown_keys(void)
     EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"],"
                          "\"frames\":3}",
                          NULL, NULL, NULL),
-                "job.json: at /source: unknown key \"frames\" (allowed: file, mesh, sequences)");
+                "job.json: at /source: unknown key \"frames\" (allowed: file, mesh, sequences, weld_tolerance)");
     EXPECT_FAIL(job_text(NULL,
                          "[{\"file\":\"a.h5\",\"mesh\":\"/m\",\"markers\":{\"csv\":\"m.csv\","
                          "\"idx_base\":0}}]",
@@ -949,7 +949,7 @@ static void test_fuzz_regressions(void)
     /* The fuzzer's input, reduced: an unknown key in /source. */
     snprintf(src, sizeof src, "{\"%s\":\"x\",\"file\":\"in.h5\"}", ctl);
     EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "job.json: at /source: unknown key \"\\u000d");
-    EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "\\u000d...\" (allowed: file, mesh, sequences)");
+    EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "\\u000d...\" (allowed: file, mesh, sequences, weld_tolerance)");
     /* A value (in "got ...") and a top-level key. */
     snprintf(extra, sizeof extra, ",\"sp04\":{\"w_smooth\":\"%s\"}", ctl);
     EXPECT_FAIL(job_text(NULL, NULL, NULL, extra),
