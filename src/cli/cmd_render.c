@@ -61,7 +61,12 @@ typedef struct {
     double *X;      /* nsel x nv x 3, the drawn frames */
     double box[4];
     int palette_offset;
+    unsigned char *mark; /* nsel: MARK_* of each drawn frame */
+    char where[DTX_H5_PATH_MAX + 512]; /* "FILE: PATH", for warnings */
 } row;
+
+/* Drawn frames that are not what they should be: their label says so. */
+enum { MARK_OK, MARK_NONFINITE, MARK_NOT_DONE };
 
 static int usage(const char *msg)
 {
@@ -499,30 +504,99 @@ static dtx_status read_frame(const frame_source *s, int64_t t, double *X, dtx_er
                         : dtx_h5_seq_read(&s->seq, t, 1, X, err);
 }
 
+/* Up to 8 frame numbers "2, 7, ..." of the drawn frames marked `mark`. */
+static void marked_list(const row *r, const int64_t *sel, int nsel, int mark, char *buf,
+                        size_t n)
+{
+    size_t used = 0;
+    int shown = 0;
+    buf[0] = '\0';
+    for (int j = 0; j < nsel; j++) {
+        int w;
+        if (r->mark[j] != mark)
+            continue;
+        w = shown < 8 ? snprintf(buf + used, n - used, "%s%lld", shown ? ", " : "",
+                                 (long long)sel[j])
+                      : snprintf(buf + used, n - used, ", ...");
+        if (w < 0 || (size_t)w >= n - used || shown++ == 8)
+            break;
+        used += (size_t)w;
+    }
+    if (!shown)
+        snprintf(buf, n, "none");
+}
+
 /* Reads every frame of s: grows r->box by each, keeps the selected ones
- * in r->X. */
+ * in r->X.  Frames of a result not marked done hold undefined values: they
+ * are not read, add nothing to the bounds and are drawn as empty panels
+ * labelled NOT DONE.  Frames with non-finite coordinates are drawn without
+ * the triangles that touch them and labelled NAN.  Both are warned about,
+ * naming the object and the frames. */
 static dtx_status load_row(const frame_source *s, const int64_t *sel, int nsel,
                            const dtx_render_opts *o, row *r, dtx_error *err)
 {
     size_t fsz = (size_t)s->nv * 3;
     double *buf = dtx_alloc(fsz, sizeof *buf, 0);
+    uint8_t *done = s->is_result ? dtx_alloc((size_t)s->nframes, 1, 0) : NULL;
     dtx_status st = DTX_OK;
+    int64_t nbad = 0, bad_f = -1, bad_v = -1, nundone = 0, undone_f = -1;
+    char w[1024], list[128];
     r->X = dtx_alloc((size_t)nsel, fsz * sizeof *r->X, 0);
-    if (!buf || !r->X) {
+    r->mark = dtx_alloc((size_t)nsel, 1, 1);
+    if (!buf || !r->X || !r->mark || (s->is_result && !done)) {
         free(buf);
+        free(done);
         return dtx_seterr(err, DTX_ENOMEM, "out of memory for %d frames of %d vertices", nsel,
                           (int)s->nv);
     }
+    if (done)
+        st = dtx_h5_result_read_done(&s->res, done, err);
     dtx_render_bounds_init(r->box);
     for (int64_t t = 0; t < s->nframes && st == DTX_OK; t++) {
-        if ((st = read_frame(s, t, buf, err)) != DTX_OK)
-            break;
-        dtx_render_bounds_add(buf, s->nv, o, r->box);
+        int mark = MARK_OK;
+        if (done && done[t] != 1) {
+            mark = MARK_NOT_DONE;
+            if (nundone++ == 0)
+                undone_f = t;
+        } else {
+            if ((st = read_frame(s, t, buf, err)) != DTX_OK)
+                break;
+            for (size_t i = 0; i < fsz; i++)
+                if (!isfinite(buf[i])) {
+                    mark = MARK_NONFINITE;
+                    if (nbad++ == 0)
+                        bad_f = t, bad_v = (int64_t)(i / 3);
+                    break;
+                }
+            dtx_render_bounds_add(buf, s->nv, o, r->box);
+        }
         for (int j = 0; j < nsel; j++)
-            if (sel[j] == t)
-                memcpy(r->X + (size_t)j * fsz, buf, fsz * sizeof *buf);
+            if (sel[j] == t) {
+                r->mark[j] = (unsigned char)mark;
+                if (mark != MARK_NOT_DONE)
+                    memcpy(r->X + (size_t)j * fsz, buf, fsz * sizeof *buf);
+            }
+    }
+    if (st == DTX_OK && nbad > 0) {
+        marked_list(r, sel, nsel, MARK_NONFINITE, list, sizeof list);
+        snprintf(w, sizeof w,
+                 "%s: %lld of %lld frames have non-finite positions (first: frame %lld, "
+                 "vertex %lld); drawn frames among them: %s, labelled NAN, their triangles "
+                 "that touch a non-finite vertex left out",
+                 r->where, (long long)nbad, (long long)s->nframes, (long long)bad_f,
+                 (long long)bad_v, list);
+        print_warning(NULL, w);
+    }
+    if (st == DTX_OK && nundone > 0) {
+        marked_list(r, sel, nsel, MARK_NOT_DONE, list, sizeof list);
+        snprintf(w, sizeof w,
+                 "%s: %lld of %lld frames are not done (first: frame %lld), their positions "
+                 "undefined; drawn frames among them: %s, left empty and labelled NOT DONE",
+                 r->where, (long long)nundone, (long long)s->nframes, (long long)undone_f, list);
+        print_warning(NULL, w);
     }
     free(buf);
+    free(done);
     return st;
 }
 
@@ -542,6 +616,7 @@ static dtx_status open_frames(hid_t f, const char *file, const char *path, int k
         s->nframes = s->seq.nframes, s->nv = s->seq.nv;
         snprintf(mp, sizeof mp, "%s/rest", path);
     }
+    snprintf(r->where, sizeof r->where, "%s: %s", file, path);
     if (st == DTX_OK)
         st = dtx_h5_read_mesh(f, mp, &r->mesh, err);
     if (st == DTX_OK && r->mesh.nv != s->nv)
@@ -599,12 +674,19 @@ static dtx_status draw(row *rows, int nrows, const int64_t *sel, int nsel, int c
             p->col = j % cols;
             p->group = r;
             p->palette_offset = rw->palette_offset;
+            if (rw->mark && rw->mark[j] == MARK_NOT_DONE)
+                p->nf = 0; /* undefined positions: an empty panel */
             if (labels) {
+                const char *note = !rw->mark                         ? ""
+                                   : rw->mark[j] == MARK_NONFINITE ? " NAN"
+                                   : rw->mark[j] == MARK_NOT_DONE  ? " NOT DONE"
+                                                                   : "";
                 if (j == 0)
-                    snprintf(text[r * nsel + j], sizeof text[0], "%.63s %lld", rw->name,
-                             (long long)sel[j]);
+                    snprintf(text[r * nsel + j], sizeof text[0], "%.63s %lld%s", rw->name,
+                             (long long)sel[j], note);
                 else
-                    snprintf(text[r * nsel + j], sizeof text[0], "%lld", (long long)sel[j]);
+                    snprintf(text[r * nsel + j], sizeof text[0], "%lld%s", (long long)sel[j],
+                             note);
                 p->label = text[r * nsel + j];
             }
         }
@@ -761,6 +843,7 @@ done:
         close_frames(&src[r]);
         dtx_mesh_free(&rows[r].mesh);
         free(rows[r].X);
+        free(rows[r].mark);
     }
     free(sel);
     dtx_h5_close(&fs, NULL);

@@ -116,4 +116,17 @@ done
 expect diff-tol 2 "dtx: diff: --tol needs a value" "$DTX" diff out.h5 out.h5 $R --tol
 expect diff-tol 0 "^same: within --tol 0 " "$DTX" diff out.h5 out.h5 $R --tol 0
 
+# ---------------------------------------------------------------- render
+expect render-nan 0 "dtx: warning: nan\.h5: $R: 1 of 5 frames have non-finite positions \(first: frame 2, vertex 5\); drawn frames among them: 2, labelled NAN" \
+    "$DTX" render nan.h5 $R -o nan.png --no-source
+check "[render-nan] the picture is written" test -s nan.png
+expect render-nan 0 "drawn frames among them: none" "$DTX" render nan.h5 $R -o nan1.png --frames 0,1 --no-source
+expect render-not-done 0 "dtx: warning: part\.h5: $R: 2 of 5 frames are not done \(first: frame 3\), their positions undefined; drawn frames among them: 3, 4, left empty and labelled NOT DONE" \
+    "$DTX" render part.h5 $R -o part.png
+# The NaN of part.h5 is in a frame not done: no NaN warning for it.
+check "[render-not-done] no NaN warning for a frame not done" \
+    bash -c "! '$DTX' render part.h5 $R -o part2.png 2>&1 | grep -q non-finite"
+check "[render-nan] no warning for a clean result" \
+    bash -c "! '$DTX' render out.h5 $R -o ok.png 2>&1 | grep -q warning"
+
 finish
