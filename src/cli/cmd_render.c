@@ -39,6 +39,7 @@ typedef struct {
     const char *input, *item, *out;
     const char *frames, *count, *cols, *width, *height, *view, *up, *color, *supersample;
     int no_source, no_labels, flat;
+    dtx_error *capture; /* dtx_render_sheet: errors go here, not to stderr */
 } render_args;
 
 /* What an HDF5 item is. */
@@ -78,6 +79,23 @@ static int fail(const dtx_error *err)
 {
     fprintf(stderr, "dtx: error: %s\n", err->msg);
     return 1;
+}
+
+/* fail() or, for dtx_render_sheet, the error kept in a->capture. */
+static int fail_or_keep(const render_args *a, const dtx_error *err)
+{
+    if (!a->capture)
+        return fail(err);
+    *a->capture = *err;
+    return 1;
+}
+
+static int usage_or_keep(const render_args *a, const char *msg)
+{
+    if (!a->capture)
+        return usage(msg);
+    dtx_seterr(a->capture, DTX_EINVAL, "%s", msg);
+    return 2;
 }
 
 static void print_warning(void *ctx, const char *msg)
@@ -448,15 +466,19 @@ static void short_name(const char *path, int kind, char *out, size_t n)
     snprintf(out, n, "%.*s", (int)(end - start), start);
 }
 
-/* Splits a result's source_sequence "FILE:PATH" and finds FILE: as given,
- * else (when relative) next to the result's file.  PATH starts with '/';
- * the last ":/" that gives an existing file wins. */
+/* Splits a result's source_sequence "FILE:PATH" and finds FILE: as stored,
+ * then (when relative) resolved against the result file's folder, then its
+ * base name in the result file's folder (the files were moved together).
+ * PATH starts with '/'; the last ":/" that gives an existing file wins.
+ * When none exists, the message names the file and the places looked at. */
 static dtx_status find_source(const char *result_file, const char *where, const char *ref,
                               char *file, size_t fn, char *path, dtx_error *err)
 {
     const char *dir_end = strrchr(result_file, '/');
+    int dlen = dir_end ? (int)(dir_end - result_file) : 0;
+    char want[4096] = "", tried[3 * 4096 + 16] = "";
     for (const char *p = ref + strlen(ref); p > ref;) {
-        const char *c = p - 1;
+        const char *c = p - 1, *base;
         while (c > ref && !(c[0] == ':' && c[1] == '/'))
             c--;
         if (c <= ref)
@@ -466,13 +488,29 @@ static dtx_status find_source(const char *result_file, const char *where, const 
             continue;
         snprintf(path, DTX_H5_PATH_MAX, "%s", c + 1);
         snprintf(file, fn, "%.*s", (int)(c - ref), ref);
+        if (!want[0])
+            snprintf(want, sizeof want, "%s", file);
         if (access(file, R_OK) == 0)
             return DTX_OK;
         if (file[0] != '/' && dir_end &&
-            (size_t)snprintf(file, fn, "%.*s/%.*s", (int)(dir_end - result_file), result_file,
-                             (int)(c - ref), ref) < fn &&
+            (size_t)snprintf(file, fn, "%.*s/%.*s", dlen, result_file, (int)(c - ref), ref) <
+                fn &&
             access(file, R_OK) == 0)
             return DTX_OK;
+        base = c;
+        while (base > ref && base[-1] != '/')
+            base--;
+        if ((size_t)snprintf(file, fn, "%.*s%s%.*s", dlen, result_file, dir_end ? "/" : "",
+                             (int)(c - base), base) < fn &&
+            access(file, R_OK) == 0)
+            return DTX_OK;
+        if (!tried[0] && want[0]) {
+            char rel[4096 + 8];
+            snprintf(rel, sizeof rel, "%.*s%s", dlen, result_file, dir_end ? "/" : "./");
+            snprintf(tried, sizeof tried, "%s%s%s%.*s", want[0] != '/' ? rel : "",
+                     want[0] != '/' ? want : "", want[0] != '/' ? ", " : "", (int)(fn - 1),
+                     file);
+        }
     }
     if (ref[0] == '/' && strchr(ref, ':') == NULL) {
         /* A path in the result's own file. */
@@ -480,9 +518,13 @@ static dtx_status find_source(const char *result_file, const char *where, const 
         snprintf(path, DTX_H5_PATH_MAX, "%s", ref);
         return DTX_OK;
     }
+    if (want[0])
+        return dtx_seterr(err, DTX_EIO,
+                          "%s: the file of the source sequence \"%s\" is missing or unreadable: "
+                          "%s (also looked for %s)",
+                          where, ref, want, tried);
     return dtx_seterr(err, DTX_EIO,
-                      "%s: the source sequence \"%s\" cannot be found (its file is missing or "
-                      "unreadable); use --no-source to draw the result alone",
+                      "%s: the source sequence \"%s\" names no file (expected FILE:/PATH)",
                       where, ref);
 }
 
@@ -722,17 +764,18 @@ static int render_mesh_file(const render_args *a, dtx_render_opts *o)
     int64_t sel = 0;
     dtx_status st;
     if (a->item)
-        return usage("render: a mesh file takes no item path");
+        return usage_or_keep(a, "render: a mesh file takes no item path");
     if (a->frames || a->count || a->cols)
-        return usage("render: --frames, --count and --cols need a sequence or a result");
+        return usage_or_keep(a, "render: --frames, --count and --cols need a sequence or a "
+                                "result");
     memset(&r, 0, sizeof r);
     if ((st = dtx_mesh_read(a->input, &r.mesh, &w, &err)) != DTX_OK)
-        return fail(&err);
+        return fail_or_keep(a, &err);
     dtx_render_bounds_init(r.box);
     dtx_render_bounds_add(r.mesh.V, r.mesh.nv, o, r.box);
     st = draw(&r, 1, &sel, 1, 1, a, o, 0, &err);
     dtx_mesh_free(&r.mesh);
-    return st == DTX_OK ? 0 : fail(&err);
+    return st == DTX_OK ? 0 : fail_or_keep(a, &err);
 }
 
 static int has_mesh_extension(const char *path)
@@ -753,9 +796,15 @@ static dtx_status open_rows(hid_t f, const render_args *a, const char *path, int
     dtx_status st = DTX_OK;
     int n = 0;
     if (kind == K_RESULT && !a->no_source) {
-        if ((st = dtx_h5_read_attr_str(f, path, "source_sequence", &ref, err)) != DTX_OK ||
-            (st = find_source(a->input, where, ref, sfile, sizeof sfile, spath, err)) != DTX_OK)
+        if ((st = dtx_h5_read_attr_str(f, path, "source_sequence", &ref, err)) != DTX_OK)
             goto done;
+        if ((st = find_source(a->input, where, ref, sfile, sizeof sfile, spath, err)) != DTX_OK) {
+            size_t len = strlen(err->msg);
+            if (!a->capture)
+                snprintf(err->msg + len, sizeof err->msg - len,
+                         "; use --no-source to draw the result alone");
+            goto done;
+        }
         if (!same_file(sfile, a->input) &&
             (st = dtx_h5_open(sfile, MPI_COMM_NULL, 0, fs, err)) != DTX_OK) {
             dtx_error_prefix(err, "%s: source sequence", where);
@@ -849,23 +898,34 @@ done:
     dtx_h5_close(&fs, NULL);
     dtx_h5_close(&f, NULL);
     if (msg)
-        return usage(msg);
-    return st == DTX_OK ? 0 : fail(&err);
+        return usage_or_keep(a, msg);
+    return st == DTX_OK ? 0 : fail_or_keep(a, &err);
 }
 
-int dtx_cmd_render(int argc, char **argv)
+static int run_render(int argc, char **argv, dtx_error *capture)
 {
     render_args a;
     dtx_render_opts o;
     char msgbuf[256];
     const char *msg;
     int cols = 0;
-    if ((msg = parse_args(argc, argv, &a, msgbuf, sizeof msgbuf)) != NULL ||
-        (msg = make_opts(&a, &o)) != NULL)
-        return usage(msg);
+    msg = parse_args(argc, argv, &a, msgbuf, sizeof msgbuf);
+    a.capture = capture;
+    if (msg || (msg = make_opts(&a, &o)) != NULL)
+        return usage_or_keep(&a, msg);
     if (a.cols && parse_int(a.cols, 1, MAX_FRAMES, &cols) != 0)
-        return usage("render: --cols must be a number of columns in 1..1024");
+        return usage_or_keep(&a, "render: --cols must be a number of columns in 1..1024");
     if (has_mesh_extension(a.input))
         return render_mesh_file(&a, &o);
     return render_h5(&a, &o, cols);
+}
+
+int dtx_cmd_render(int argc, char **argv)
+{
+    return run_render(argc, argv, NULL);
+}
+
+int dtx_render_sheet(int argc, char **argv, dtx_error *err)
+{
+    return run_render(argc, argv, err);
 }

@@ -129,4 +129,40 @@ check "[render-not-done] no NaN warning for a frame not done" \
 check "[render-nan] no warning for a clean result" \
     bash -c "! '$DTX' render out.h5 $R -o ok.png 2>&1 | grep -q warning"
 
+# ---------------------------------------------------------------- report
+# The result's source_sequence names in.h5; the files are moved.  The
+# source is looked for as stored, then resolved against the result file's
+# folder, then by its base name in that folder.  Run from another folder.
+mkdir -p mv-rel/data mv-base mv-gone elsewhere
+"$PY" - <<'PY' || echo "FAILED: [report-moved-source] h5py copies"
+import h5py, shutil
+for d, ref in (("mv-rel", "data/in.h5:/sequences/walk"),
+               ("mv-base", "/nowhere/data/in.h5:/sequences/walk"),
+               ("mv-gone", "/nowhere/data/in.h5:/sequences/walk")):
+    shutil.copy("out.h5", d + "/out.h5")
+    with h5py.File(d + "/out.h5", "r+") as f:
+        f["/results/tgt/walk"].attrs["source_sequence"] = ref
+shutil.copy("in.h5", "mv-rel/data/in.h5")
+shutil.copy("in.h5", "mv-base/in.h5")
+PY
+cd elsewhere
+for d in mv-rel mv-base; do
+    expect report-moved-source 0 "dtx: report: \.\./$d/out\.report\.md" "$DTX" report ../$d/out.h5
+    check "[report-moved-source] $d: the contact sheet is linked" \
+        grep -q '^!\[/results/tgt/walk: source above, result below\](out.report-pictures/tgt-walk.png)$' ../$d/out.report.md
+    check "[report-moved-source] $d: no warning" bash -c "! '$DTX' report ../$d/out.h5 -o r-$d.md 2>&1 | grep -q warning"
+done
+expect report-missing-source 0 "dtx: warning: \.\./mv-gone/out\.h5: $R: the file of the source sequence \"/nowhere/data/in\.h5:/sequences/walk\" is missing or unreadable: /nowhere/data/in\.h5 \(also looked for \.\./mv-gone/in\.h5\); the contact sheet of $R is left out of the report" \
+    "$DTX" report ../mv-gone/out.h5
+check "[report-missing-source] no 'dtx: error' with exit 0" \
+    bash -c "! '$DTX' report ../mv-gone/out.h5 -o gone2.md 2>&1 | grep -q 'dtx: error'"
+check "[report-missing-source] the page says the sheet is left out" \
+    grep -q '^(No contact sheet: .*is missing or unreadable: /nowhere/data/in\.h5 ' ../mv-gone/out.report.md
+check "[report-missing-source] the page links no picture" bash -c '! grep -q "^!\[" ../mv-gone/out.report.md'
+check "[report-missing-source] the rest of the page is there" grep -q '^- frames: 5, 5 done, complete$' ../mv-gone/out.report.md
+# dtx render itself keeps it an error (exit 1), with the hint.
+expect report-missing-source 1 "dtx: error: .*missing or unreadable.*; use --no-source to draw the result alone" \
+    "$DTX" render ../mv-gone/out.h5 $R -o gone.png
+cd ..
+
 finish
