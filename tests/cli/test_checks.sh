@@ -165,4 +165,33 @@ expect report-missing-source 1 "dtx: error: .*missing or unreadable.*; use --no-
     "$DTX" render ../mv-gone/out.h5 $R -o gone.png
 cd ..
 
+# ------------------------------------------- 64-bit indices from h5py
+# Faces stored as int64 by another program: a value past 32 bits is
+# reported as it is (it used to be clamped to 2147483647 on reading).
+"$PY" - <<'PY' || echo "FAILED: [h5-index-64bit] h5py copies"
+import h5py, numpy as np, shutil
+def variant(name, value, dtype):
+    shutil.copy("in.h5", name)
+    with h5py.File(name, "r+") as f:
+        g = f["/meshes/src"]
+        F = g["faces"][...].astype(dtype)
+        if value is not None:
+            F[1, 2] = value
+        del g["faces"]; g["faces"] = F
+        del g.attrs["content_hash"]
+variant("f64.h5", 2**32 + 3, "i8")
+variant("fneg.h5", -2**40, "i8")
+variant("fu64.h5", 2**64 - 1, "u8")
+variant("fok.h5", None, "i8")
+PY
+for v in "f64.h5 4294967299" "fneg.h5 -1099511627776" "fu64.h5 18446744073709551615"; do
+    set -- $v
+    expect h5-index-64bit 1 "$1: /sequences/walk/rest/faces: face 1 \(0-based\) holds $2, which does not fit in the 32-bit indices dtx reads" \
+        "$DTX" export $1 /sequences/walk --obj-dir obj-$1
+done
+# In range int64 faces are read (the layout asks for int32; validate says so).
+expect h5-index-64bit 0 "" "$DTX" export fok.h5 /sequences/walk --obj-dir obj-ok
+expect h5-index-64bit 1 "/meshes/src/faces: expected 32-bit signed integer values, found 64-bit" \
+    "$DTX" validate f64.h5
+
 finish
