@@ -39,6 +39,7 @@ typedef struct {
     const char *input, *item, *out;
     const char *frames, *count, *cols, *width, *height, *view, *up, *color, *supersample;
     int no_source, no_labels, flat;
+    dtx_error *capture; /* dtx_render_sheet: errors go here, not to stderr */
 } render_args;
 
 /* What an HDF5 item is. */
@@ -61,7 +62,12 @@ typedef struct {
     double *X;      /* nsel x nv x 3, the drawn frames */
     double box[4];
     int palette_offset;
+    unsigned char *mark; /* nsel: MARK_* of each drawn frame */
+    char where[DTX_H5_PATH_MAX + 512]; /* "FILE: PATH", for warnings */
 } row;
+
+/* Drawn frames that are not what they should be: their label says so. */
+enum { MARK_OK, MARK_NONFINITE, MARK_NOT_DONE };
 
 static int usage(const char *msg)
 {
@@ -73,6 +79,23 @@ static int fail(const dtx_error *err)
 {
     fprintf(stderr, "dtx: error: %s\n", err->msg);
     return 1;
+}
+
+/* fail() or, for dtx_render_sheet, the error kept in a->capture. */
+static int fail_or_keep(const render_args *a, const dtx_error *err)
+{
+    if (!a->capture)
+        return fail(err);
+    *a->capture = *err;
+    return 1;
+}
+
+static int usage_or_keep(const render_args *a, const char *msg)
+{
+    if (!a->capture)
+        return usage(msg);
+    dtx_seterr(a->capture, DTX_EINVAL, "%s", msg);
+    return 2;
 }
 
 static void print_warning(void *ctx, const char *msg)
@@ -443,15 +466,19 @@ static void short_name(const char *path, int kind, char *out, size_t n)
     snprintf(out, n, "%.*s", (int)(end - start), start);
 }
 
-/* Splits a result's source_sequence "FILE:PATH" and finds FILE: as given,
- * else (when relative) next to the result's file.  PATH starts with '/';
- * the last ":/" that gives an existing file wins. */
+/* Splits a result's source_sequence "FILE:PATH" and finds FILE: as stored,
+ * then (when relative) resolved against the result file's folder, then its
+ * base name in the result file's folder (the files were moved together).
+ * PATH starts with '/'; the last ":/" that gives an existing file wins.
+ * When none exists, the message names the file and the places looked at. */
 static dtx_status find_source(const char *result_file, const char *where, const char *ref,
                               char *file, size_t fn, char *path, dtx_error *err)
 {
     const char *dir_end = strrchr(result_file, '/');
+    int dlen = dir_end ? (int)(dir_end - result_file) : 0;
+    char want[4096] = "", tried[3 * 4096 + 16] = "";
     for (const char *p = ref + strlen(ref); p > ref;) {
-        const char *c = p - 1;
+        const char *c = p - 1, *base;
         while (c > ref && !(c[0] == ':' && c[1] == '/'))
             c--;
         if (c <= ref)
@@ -461,13 +488,29 @@ static dtx_status find_source(const char *result_file, const char *where, const 
             continue;
         snprintf(path, DTX_H5_PATH_MAX, "%s", c + 1);
         snprintf(file, fn, "%.*s", (int)(c - ref), ref);
+        if (!want[0])
+            snprintf(want, sizeof want, "%s", file);
         if (access(file, R_OK) == 0)
             return DTX_OK;
         if (file[0] != '/' && dir_end &&
-            (size_t)snprintf(file, fn, "%.*s/%.*s", (int)(dir_end - result_file), result_file,
-                             (int)(c - ref), ref) < fn &&
+            (size_t)snprintf(file, fn, "%.*s/%.*s", dlen, result_file, (int)(c - ref), ref) <
+                fn &&
             access(file, R_OK) == 0)
             return DTX_OK;
+        base = c;
+        while (base > ref && base[-1] != '/')
+            base--;
+        if ((size_t)snprintf(file, fn, "%.*s%s%.*s", dlen, result_file, dir_end ? "/" : "",
+                             (int)(c - base), base) < fn &&
+            access(file, R_OK) == 0)
+            return DTX_OK;
+        if (!tried[0] && want[0]) {
+            char rel[4096 + 8];
+            snprintf(rel, sizeof rel, "%.*s%s", dlen, result_file, dir_end ? "/" : "./");
+            snprintf(tried, sizeof tried, "%s%s%s%.*s", want[0] != '/' ? rel : "",
+                     want[0] != '/' ? want : "", want[0] != '/' ? ", " : "", (int)(fn - 1),
+                     file);
+        }
     }
     if (ref[0] == '/' && strchr(ref, ':') == NULL) {
         /* A path in the result's own file. */
@@ -475,9 +518,13 @@ static dtx_status find_source(const char *result_file, const char *where, const 
         snprintf(path, DTX_H5_PATH_MAX, "%s", ref);
         return DTX_OK;
     }
+    if (want[0])
+        return dtx_seterr(err, DTX_EIO,
+                          "%s: the file of the source sequence \"%s\" is missing or unreadable: "
+                          "%s (also looked for %s)",
+                          where, ref, want, tried);
     return dtx_seterr(err, DTX_EIO,
-                      "%s: the source sequence \"%s\" cannot be found (its file is missing or "
-                      "unreadable); use --no-source to draw the result alone",
+                      "%s: the source sequence \"%s\" names no file (expected FILE:/PATH)",
                       where, ref);
 }
 
@@ -499,30 +546,99 @@ static dtx_status read_frame(const frame_source *s, int64_t t, double *X, dtx_er
                         : dtx_h5_seq_read(&s->seq, t, 1, X, err);
 }
 
+/* Up to 8 frame numbers "2, 7, ..." of the drawn frames marked `mark`. */
+static void marked_list(const row *r, const int64_t *sel, int nsel, int mark, char *buf,
+                        size_t n)
+{
+    size_t used = 0;
+    int shown = 0;
+    buf[0] = '\0';
+    for (int j = 0; j < nsel; j++) {
+        int w;
+        if (r->mark[j] != mark)
+            continue;
+        w = shown < 8 ? snprintf(buf + used, n - used, "%s%lld", shown ? ", " : "",
+                                 (long long)sel[j])
+                      : snprintf(buf + used, n - used, ", ...");
+        if (w < 0 || (size_t)w >= n - used || shown++ == 8)
+            break;
+        used += (size_t)w;
+    }
+    if (!shown)
+        snprintf(buf, n, "none");
+}
+
 /* Reads every frame of s: grows r->box by each, keeps the selected ones
- * in r->X. */
+ * in r->X.  Frames of a result not marked done hold undefined values: they
+ * are not read, add nothing to the bounds and are drawn as empty panels
+ * labelled NOT DONE.  Frames with non-finite coordinates are drawn without
+ * the triangles that touch them and labelled NAN.  Both are warned about,
+ * naming the object and the frames. */
 static dtx_status load_row(const frame_source *s, const int64_t *sel, int nsel,
                            const dtx_render_opts *o, row *r, dtx_error *err)
 {
     size_t fsz = (size_t)s->nv * 3;
     double *buf = dtx_alloc(fsz, sizeof *buf, 0);
+    uint8_t *done = s->is_result ? dtx_alloc((size_t)s->nframes, 1, 0) : NULL;
     dtx_status st = DTX_OK;
+    int64_t nbad = 0, bad_f = -1, bad_v = -1, nundone = 0, undone_f = -1;
+    char w[1024], list[128];
     r->X = dtx_alloc((size_t)nsel, fsz * sizeof *r->X, 0);
-    if (!buf || !r->X) {
+    r->mark = dtx_alloc((size_t)nsel, 1, 1);
+    if (!buf || !r->X || !r->mark || (s->is_result && !done)) {
         free(buf);
+        free(done);
         return dtx_seterr(err, DTX_ENOMEM, "out of memory for %d frames of %d vertices", nsel,
                           (int)s->nv);
     }
+    if (done)
+        st = dtx_h5_result_read_done(&s->res, done, err);
     dtx_render_bounds_init(r->box);
     for (int64_t t = 0; t < s->nframes && st == DTX_OK; t++) {
-        if ((st = read_frame(s, t, buf, err)) != DTX_OK)
-            break;
-        dtx_render_bounds_add(buf, s->nv, o, r->box);
+        int mark = MARK_OK;
+        if (done && done[t] != 1) {
+            mark = MARK_NOT_DONE;
+            if (nundone++ == 0)
+                undone_f = t;
+        } else {
+            if ((st = read_frame(s, t, buf, err)) != DTX_OK)
+                break;
+            for (size_t i = 0; i < fsz; i++)
+                if (!isfinite(buf[i])) {
+                    mark = MARK_NONFINITE;
+                    if (nbad++ == 0)
+                        bad_f = t, bad_v = (int64_t)(i / 3);
+                    break;
+                }
+            dtx_render_bounds_add(buf, s->nv, o, r->box);
+        }
         for (int j = 0; j < nsel; j++)
-            if (sel[j] == t)
-                memcpy(r->X + (size_t)j * fsz, buf, fsz * sizeof *buf);
+            if (sel[j] == t) {
+                r->mark[j] = (unsigned char)mark;
+                if (mark != MARK_NOT_DONE)
+                    memcpy(r->X + (size_t)j * fsz, buf, fsz * sizeof *buf);
+            }
+    }
+    if (st == DTX_OK && nbad > 0) {
+        marked_list(r, sel, nsel, MARK_NONFINITE, list, sizeof list);
+        snprintf(w, sizeof w,
+                 "%s: %lld of %lld frames have non-finite positions (first: frame %lld, "
+                 "vertex %lld); drawn frames among them: %s, labelled NAN, their triangles "
+                 "that touch a non-finite vertex left out",
+                 r->where, (long long)nbad, (long long)s->nframes, (long long)bad_f,
+                 (long long)bad_v, list);
+        print_warning(NULL, w);
+    }
+    if (st == DTX_OK && nundone > 0) {
+        marked_list(r, sel, nsel, MARK_NOT_DONE, list, sizeof list);
+        snprintf(w, sizeof w,
+                 "%s: %lld of %lld frames are not done (first: frame %lld), their positions "
+                 "undefined; drawn frames among them: %s, left empty and labelled NOT DONE",
+                 r->where, (long long)nundone, (long long)s->nframes, (long long)undone_f, list);
+        print_warning(NULL, w);
     }
     free(buf);
+    free(done);
     return st;
 }
 
@@ -542,6 +658,7 @@ static dtx_status open_frames(hid_t f, const char *file, const char *path, int k
         s->nframes = s->seq.nframes, s->nv = s->seq.nv;
         snprintf(mp, sizeof mp, "%s/rest", path);
     }
+    snprintf(r->where, sizeof r->where, "%s: %s", file, path);
     if (st == DTX_OK)
         st = dtx_h5_read_mesh(f, mp, &r->mesh, err);
     if (st == DTX_OK && r->mesh.nv != s->nv)
@@ -599,12 +716,19 @@ static dtx_status draw(row *rows, int nrows, const int64_t *sel, int nsel, int c
             p->col = j % cols;
             p->group = r;
             p->palette_offset = rw->palette_offset;
+            if (rw->mark && rw->mark[j] == MARK_NOT_DONE)
+                p->nf = 0; /* undefined positions: an empty panel */
             if (labels) {
+                const char *note = !rw->mark                         ? ""
+                                   : rw->mark[j] == MARK_NONFINITE ? " NAN"
+                                   : rw->mark[j] == MARK_NOT_DONE  ? " NOT DONE"
+                                                                   : "";
                 if (j == 0)
-                    snprintf(text[r * nsel + j], sizeof text[0], "%.63s %lld", rw->name,
-                             (long long)sel[j]);
+                    snprintf(text[r * nsel + j], sizeof text[0], "%.63s %lld%s", rw->name,
+                             (long long)sel[j], note);
                 else
-                    snprintf(text[r * nsel + j], sizeof text[0], "%lld", (long long)sel[j]);
+                    snprintf(text[r * nsel + j], sizeof text[0], "%lld%s", (long long)sel[j],
+                             note);
                 p->label = text[r * nsel + j];
             }
         }
@@ -640,17 +764,18 @@ static int render_mesh_file(const render_args *a, dtx_render_opts *o)
     int64_t sel = 0;
     dtx_status st;
     if (a->item)
-        return usage("render: a mesh file takes no item path");
+        return usage_or_keep(a, "render: a mesh file takes no item path");
     if (a->frames || a->count || a->cols)
-        return usage("render: --frames, --count and --cols need a sequence or a result");
+        return usage_or_keep(a, "render: --frames, --count and --cols need a sequence or a "
+                                "result");
     memset(&r, 0, sizeof r);
     if ((st = dtx_mesh_read(a->input, &r.mesh, &w, &err)) != DTX_OK)
-        return fail(&err);
+        return fail_or_keep(a, &err);
     dtx_render_bounds_init(r.box);
     dtx_render_bounds_add(r.mesh.V, r.mesh.nv, o, r.box);
     st = draw(&r, 1, &sel, 1, 1, a, o, 0, &err);
     dtx_mesh_free(&r.mesh);
-    return st == DTX_OK ? 0 : fail(&err);
+    return st == DTX_OK ? 0 : fail_or_keep(a, &err);
 }
 
 static int has_mesh_extension(const char *path)
@@ -671,9 +796,15 @@ static dtx_status open_rows(hid_t f, const render_args *a, const char *path, int
     dtx_status st = DTX_OK;
     int n = 0;
     if (kind == K_RESULT && !a->no_source) {
-        if ((st = dtx_h5_read_attr_str(f, path, "source_sequence", &ref, err)) != DTX_OK ||
-            (st = find_source(a->input, where, ref, sfile, sizeof sfile, spath, err)) != DTX_OK)
+        if ((st = dtx_h5_read_attr_str(f, path, "source_sequence", &ref, err)) != DTX_OK)
             goto done;
+        if ((st = find_source(a->input, where, ref, sfile, sizeof sfile, spath, err)) != DTX_OK) {
+            size_t len = strlen(err->msg);
+            if (!a->capture)
+                snprintf(err->msg + len, sizeof err->msg - len,
+                         "; use --no-source to draw the result alone");
+            goto done;
+        }
         if (!same_file(sfile, a->input) &&
             (st = dtx_h5_open(sfile, MPI_COMM_NULL, 0, fs, err)) != DTX_OK) {
             dtx_error_prefix(err, "%s: source sequence", where);
@@ -761,28 +892,40 @@ done:
         close_frames(&src[r]);
         dtx_mesh_free(&rows[r].mesh);
         free(rows[r].X);
+        free(rows[r].mark);
     }
     free(sel);
     dtx_h5_close(&fs, NULL);
     dtx_h5_close(&f, NULL);
     if (msg)
-        return usage(msg);
-    return st == DTX_OK ? 0 : fail(&err);
+        return usage_or_keep(a, msg);
+    return st == DTX_OK ? 0 : fail_or_keep(a, &err);
 }
 
-int dtx_cmd_render(int argc, char **argv)
+static int run_render(int argc, char **argv, dtx_error *capture)
 {
     render_args a;
     dtx_render_opts o;
     char msgbuf[256];
     const char *msg;
     int cols = 0;
-    if ((msg = parse_args(argc, argv, &a, msgbuf, sizeof msgbuf)) != NULL ||
-        (msg = make_opts(&a, &o)) != NULL)
-        return usage(msg);
+    msg = parse_args(argc, argv, &a, msgbuf, sizeof msgbuf);
+    a.capture = capture;
+    if (msg || (msg = make_opts(&a, &o)) != NULL)
+        return usage_or_keep(&a, msg);
     if (a.cols && parse_int(a.cols, 1, MAX_FRAMES, &cols) != 0)
-        return usage("render: --cols must be a number of columns in 1..1024");
+        return usage_or_keep(&a, "render: --cols must be a number of columns in 1..1024");
     if (has_mesh_extension(a.input))
         return render_mesh_file(&a, &o);
     return render_h5(&a, &o, cols);
+}
+
+int dtx_cmd_render(int argc, char **argv)
+{
+    return run_render(argc, argv, NULL);
+}
+
+int dtx_render_sheet(int argc, char **argv, dtx_error *err)
+{
+    return run_render(argc, argv, err);
 }

@@ -413,6 +413,7 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
     int32_t nv = 0, nf = 0;
     char tgt[DTX_H5_PATH_MAX + 16], *tmesh = NULL;
     dtx_status st;
+    dtx_error rerr;
 
     memset(&res, 0, sizeof res);
     if ((st = dtx_h5_result_open(h, path, 0, &res, err)) != DTX_OK)
@@ -463,12 +464,21 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             argv[argc++] = (char *)a->count;
         }
         argv[argc] = NULL;
-        rc = ndone == res.nframes ? dtx_cmd_render(argc, argv) : -1;
-        if (rc == 0)
+        /* A picture that cannot be drawn (the source sequence's file moved
+         * away, say) is left out with a warning and a note on the page: the
+         * rest of the report is still true, so the report is written. */
+        rc = ndone == res.nframes ? dtx_render_sheet(argc, argv, &rerr) : -1;
+        if (rc == 0) {
             fprintf(f, "![%s: source above, result below](%s/%s.png)\n\n", path, pic_link, name);
-        else
-            fprintf(f, "(No contact sheet: %s.)\n\n",
-                    rc < 0 ? "frames missing" : "drawing failed, see the message of dtx report");
+        } else if (rc < 0) {
+            fprintf(f, "(No contact sheet: frames missing.)\n\n");
+        } else {
+            fprintf(stderr, "dtx: warning: %s; the contact sheet of %s is left out of the "
+                    "report\n", rerr.msg, path);
+            fprintf(f, "(No contact sheet: ");
+            md_text(f, rerr.msg);
+            fprintf(f, ".)\n\n");
+        }
     }
     write_residuals(f, r, done, res.nframes);
     if (res.frame_stats >= 0) {

@@ -3,6 +3,7 @@
  * and the driver, prints messages.  Exit status 0 on success, 1 on any
  * error (with "dtx: error: ..." on stderr), 2 on a usage error.
  */
+#include "cmd_diff.h"
 #include "cmd_export.h"
 #include "cmd_generate.h"
 #include "cmd_inspect.h"
@@ -466,61 +467,6 @@ static int cmd_validate(int argc, char **argv)
     return st == DTX_OK ? 0 : fail(&err);
 }
 
-/* Compares the positions of one result in two files: prints the largest
- * difference relative to the largest coordinate magnitude. */
-static int cmd_diff(int argc, char **argv)
-{
-    char *pos[4];
-    const char *tols = opt(argc, argv, "--tol");
-    double tol = tols ? strtod(tols, NULL) : 1e-12, maxd = 0.0, maxv = 0.0;
-    dtx_error err;
-    dtx_status st;
-    hid_t fa = H5I_INVALID_HID, fb = H5I_INVALID_HID;
-    dtx_h5_result ra, rb;
-    double *a = NULL, *b = NULL;
-    if (positionals(argc, argv, 2, pos, 4) != 3)
-        return usage("diff needs two files and a result path");
-    memset(&ra, 0, sizeof ra);
-    memset(&rb, 0, sizeof rb);
-    st = dtx_h5_open(pos[0], MPI_COMM_NULL, 0, &fa, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_open(pos[1], MPI_COMM_NULL, 0, &fb, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_result_open(fa, pos[2], 0, &ra, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_result_open(fb, pos[2], 0, &rb, &err);
-    if (st == DTX_OK && (ra.nframes != rb.nframes || ra.nv != rb.nv))
-        st = dtx_seterr(&err, DTX_EFORMAT, "%s: shapes differ (%lld x %d vs %lld x %d)", pos[2],
-                        (long long)ra.nframes, (int)ra.nv, (long long)rb.nframes, (int)rb.nv);
-    if (st == DTX_OK) {
-        a = dtx_alloc((size_t)ra.nv, 3 * sizeof *a, 0);
-        b = dtx_alloc((size_t)ra.nv, 3 * sizeof *b, 0);
-        if (!a || !b)
-            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
-    }
-    for (int64_t f = 0; st == DTX_OK && f < ra.nframes; f++) {
-        st = dtx_h5_result_read(&ra, f, 1, a, NULL, &err);
-        if (st == DTX_OK)
-            st = dtx_h5_result_read(&rb, f, 1, b, NULL, &err);
-        for (size_t i = 0; st == DTX_OK && i < 3 * (size_t)ra.nv; i++) {
-            double d = fabs(a[i] - b[i]);
-            maxd = d > maxd ? d : maxd;
-            maxv = fabs(a[i]) > maxv ? fabs(a[i]) : maxv;
-        }
-    }
-    free(a);
-    free(b);
-    dtx_h5_result_close(&ra);
-    dtx_h5_result_close(&rb);
-    dtx_h5_close(&fa, NULL);
-    dtx_h5_close(&fb, NULL);
-    if (st != DTX_OK)
-        return fail(&err);
-    printf("max difference %.3g (relative %.3g) over %lld frames\n", maxd,
-           maxv > 0 ? maxd / maxv : maxd, (long long)ra.nframes);
-    return maxd <= tol * (maxv > 0 ? maxv : 1.0) ? 0 : 1;
-}
-
 static int cmd_run(int argc, char **argv)
 {
     dtx_run_opts o;
@@ -600,7 +546,7 @@ int main(int argc, char **argv)
     if (strcmp(argv[1], "validate") == 0)
         return cmd_validate(argc, argv);
     if (strcmp(argv[1], "diff") == 0)
-        return cmd_diff(argc, argv);
+        return dtx_cmd_diff(argc, argv);
     if (strcmp(argv[1], "render") == 0)
         return dtx_cmd_render(argc, argv);
     if (strcmp(argv[1], "report") == 0)

@@ -1150,6 +1150,72 @@ done:
 /* Reads a whole 1-D or 2-D numeric dataset (already shape-checked) after
  * the storage check: *out gets a malloc'ed array of npts elements of size
  * esz (memory type mtype). */
+/* Reads an integer dataset (rank 1 or 2) into int32 without HDF5's silent
+ * clamping: a value written by another program as int64 or uint32 that
+ * does not fit in 32 bits (2^32 + 3 would become 2147483647) is reported
+ * with its row (called noun) and its real value.  Wide types are read in
+ * blocks of rows, so no second copy of the whole dataset is made. */
+static dtx_status read_int32_exact(hid_t file, hid_t dset, const char *path,
+                                   const hsize_t *dims, int rank, const char *noun, int32_t *out,
+                                   dtx_error *err)
+{
+    enum { BLOCK_ROWS = 65536 };
+    hid_t ft = H5Dget_type(dset), fs = H5I_INVALID_HID, ms = H5I_INVALID_HID;
+    hsize_t cols = rank == 2 ? dims[1] : 1, start[2] = {0, 0}, count[2] = {0, cols};
+    size_t size = ft >= 0 ? H5Tget_size(ft) : 0;
+    int is_unsigned =
+        ft >= 0 && H5Tget_class(ft) == H5T_INTEGER && H5Tget_sign(ft) == H5T_SGN_NONE;
+    dtx_status st = DTX_OK;
+    int64_t *buf = NULL;
+    CLOSE_ID(H5Tclose, ft);
+    if (size == 0)
+        return h5err(err, file, path, "cannot inspect the dataset");
+    if (size < 4 || (size == 4 && !is_unsigned)) {
+        if (H5Dread(dset, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, out) < 0)
+            return h5err(err, file, path, "cannot read the dataset");
+        return DTX_OK;
+    }
+    buf = dtx_alloc(BLOCK_ROWS, (size_t)cols * sizeof *buf, 0);
+    fs = H5Dget_space(dset);
+    if (!buf || fs < 0) {
+        st = buf ? h5err(err, file, path, "cannot read the dataset")
+                 : ferr(err, DTX_ENOMEM, file, path, "out of memory");
+        goto done;
+    }
+    for (hsize_t r0 = 0; r0 < dims[0]; r0 += BLOCK_ROWS) {
+        start[0] = r0;
+        count[0] = dims[0] - r0 < BLOCK_ROWS ? dims[0] - r0 : BLOCK_ROWS;
+        ms = H5Screate_simple(rank, count, NULL);
+        if (ms < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
+            H5Dread(dset, is_unsigned ? H5T_NATIVE_UINT64 : H5T_NATIVE_INT64, ms, fs,
+                    H5P_DEFAULT, buf) < 0) {
+            st = h5err(err, file, path, "cannot read the dataset");
+            goto done;
+        }
+        CLOSE_ID(H5Sclose, ms);
+        for (size_t i = 0; i < (size_t)(count[0] * cols); i++) {
+            uint64_t u = (uint64_t)buf[i];
+            int bad = is_unsigned ? u > (uint64_t)INT32_MAX
+                                  : buf[i] < INT32_MIN || buf[i] > INT32_MAX;
+            if (bad) {
+                st = ferr(err, DTX_ERANGE, file, path,
+                          "%s %llu (0-based) holds %s%llu, which does not fit in the 32-bit "
+                          "indices dtx reads",
+                          noun, (unsigned long long)(r0 + i / cols),
+                          !is_unsigned && buf[i] < 0 ? "-" : "",
+                          (unsigned long long)(!is_unsigned && buf[i] < 0 ? 0 - u : u));
+                goto done;
+            }
+            out[r0 * cols + i] = (int32_t)buf[i];
+        }
+    }
+done:
+    CLOSE_ID(H5Sclose, ms);
+    CLOSE_ID(H5Sclose, fs);
+    free(buf);
+    return st;
+}
+
 static dtx_status read_whole(hid_t file, hid_t dset, const char *path, const hsize_t *dims,
                              int rank, hid_t mtype, size_t esz, void **out, dtx_error *err)
 {
@@ -1163,6 +1229,13 @@ static dtx_status read_whole(hid_t file, hid_t dset, const char *path, const hsi
     *out = dtx_alloc(npts, esz, 0);
     if (!*out)
         return ferr(err, DTX_ENOMEM, file, path, "out of memory for %zu values", npts);
+    if (npts > 0 && mtype == H5T_NATIVE_INT32) {
+        if ((st = read_int32_exact(file, dset, path, dims, rank, "row", *out, err)) != DTX_OK) {
+            free(*out);
+            *out = NULL;
+        }
+        return st;
+    }
     if (npts > 0 && H5Dread(dset, mtype, H5S_ALL, H5S_ALL, H5P_DEFAULT, *out) < 0) {
         free(*out);
         *out = NULL;
@@ -1288,10 +1361,9 @@ dtx_status dtx_h5_read_mesh(hid_t file, const char *group, dtx_mesh *m, dtx_erro
         st = h5err(err, file, vpath, "cannot read the vertices");
         goto fail;
     }
-    if (m->nf > 0 && H5Dread(fd, H5T_NATIVE_INT32, H5S_ALL, H5S_ALL, H5P_DEFAULT, m->F) < 0) {
-        st = h5err(err, file, fpath, "cannot read the faces");
+    if (m->nf > 0 &&
+        (st = read_int32_exact(file, fd, fpath, fdims, 2, "face", m->F, err)) != DTX_OK)
         goto fail;
-    }
     if ((st = check_count_attr(file, group, "nv", m->nv, "vertices", err)) != DTX_OK ||
         (st = check_count_attr(file, group, "nf", m->nf, "faces", err)) != DTX_OK)
         goto fail;

@@ -83,6 +83,9 @@ typedef struct {
     size_t len, cap;
     int oom;
     int nproblems, nobjects, nbad;
+    /* frames of results / sequences whose coordinates were read */
+    int nres, nseq;
+    long long res_frames, res_checked, seq_frames, seq_checked;
     char first[sizeof(((dtx_error *)0)->msg)];
     /* groups checked so far */
     vobj *objs;
@@ -735,6 +738,10 @@ static void check_range(vctx *c, const char *group, const cJSON *spec)
     jnum(spec, "column", &column);
     if (below && !lookup(c, below, &max, desc, sizeof desc))
         max = INT64_MAX; /* unknown bound: only the minimum is checked */
+    if (!below && jnum(spec, "max", &max)) {
+        snprintf(desc, sizeof desc, "at most %lld", (long long)max);
+        max = max < INT64_MAX ? max + 1 : max;
+    }
     v = read_values(c, group, rec, H5T_NATIVE_INT64, sizeof(int64_t), &npts);
     if (!v)
         return;
@@ -786,6 +793,122 @@ static void check_finite(vctx *c, const char *group, const cJSON *spec)
             break;
         }
     free(v);
+}
+
+/* Every coordinate of a T x nv x 3 dataset is finite: in every frame, or,
+ * with "done", in the frames whose entry in that dataset is 1 (the others
+ * hold undefined values).  Frames are read a block at a time, so a result
+ * of 20,000 frames never sits in memory whole.  Counts the frames for the
+ * summary. */
+static void check_finite_frames(vctx *c, const char *group, const cJSON *spec)
+{
+    enum { BLOCK_VALUES = 1 << 21 }; /* 16 MiB of doubles */
+    const char *dname = jstr(spec, "dataset"), *dn = jstr(spec, "done");
+    vdset *rec = dname ? find_dset(c, dname) : NULL, *drec = dn ? find_dset(c, dn) : NULL;
+    char full[DTX_H5_PATH_MAX];
+    hid_t d = H5I_INVALID_HID, ft = H5I_INVALID_HID, dcpl = H5I_INVALID_HID;
+    hid_t fs = H5I_INVALID_HID, ms = H5I_INVALID_HID;
+    int64_t *flags = NULL;
+    double *buf = NULL;
+    size_t nflags = 0, fvals, block;
+    hsize_t T, ndone = 0, nbad = 0, first_f = 0, first_v = 0;
+    double first_x = 0;
+    uint64_t need;
+    int is_res = strcmp(c->cur.kind, "results") == 0, nfilt;
+
+    if (!rec || !rec->usable || rec->cls != H5T_FLOAT || rec->rank != 3 ||
+        join(group, dname, full, sizeof full))
+        return;
+    if (dn && (!drec || !drec->usable || drec->rank != 1 || drec->dims[0] != rec->dims[0]))
+        return; /* the flags are missing or misshapen: reported with the datasets */
+    T = rec->dims[0];
+    fvals = (size_t)rec->dims[1] * (size_t)rec->dims[2];
+    if (dn) {
+        flags = read_values(c, group, drec, H5T_NATIVE_INT64, sizeof(int64_t), &nflags);
+        if (!flags)
+            return;
+    }
+    for (hsize_t f = 0; f < T; f++)
+        ndone += !flags || flags[f] == 1;
+    d = H5Dopen2(c->file, full, H5P_DEFAULT);
+    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
+    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
+    fs = d > 0 ? H5Dget_space(d) : H5I_INVALID_HID;
+    if (d < 0 || ft < 0 || dcpl < 0 || fs < 0) {
+        problem(c, full, "cannot be opened");
+        goto done;
+    }
+    /* The frames to read must be stored: a forged shape cannot make the
+     * check read terabytes of fill values. */
+    need = (uint64_t)ndone * fvals * H5Tget_size(ft);
+    nfilt = H5Pget_nfilters(dcpl);
+    if (nfilt > 0 ? need / GZIP_MAX_RATIO > H5Dget_storage_size(d) + 64
+                  : need > H5Dget_storage_size(d)) {
+        problem(c, full, "%llu frame%s%s need %llu bytes, but only %llu %sbytes are stored",
+                (unsigned long long)ndone, ndone == 1 ? "" : "s", dn ? " marked done" : "",
+                (unsigned long long)need, (unsigned long long)H5Dget_storage_size(d),
+                nfilt > 0 ? "compressed " : "");
+        goto done;
+    }
+    block = fvals > 0 && fvals < BLOCK_VALUES ? BLOCK_VALUES / fvals : 1;
+    buf = dtx_alloc(block, fvals * sizeof *buf, 0);
+    if (!buf && fvals > 0) {
+        problem(c, full, "out of memory reading %zu frames", block);
+        goto done;
+    }
+    for (hsize_t f0 = 0; fvals > 0 && f0 < T; f0 += block) {
+        hsize_t n = T - f0 < block ? T - f0 : block, any = 0;
+        hsize_t start[3] = {f0, 0, 0}, count[3] = {n, rec->dims[1], rec->dims[2]};
+        for (hsize_t f = f0; f < f0 + n; f++)
+            any += !flags || flags[f] == 1;
+        if (!any)
+            continue;
+        ms = H5Screate_simple(3, count, NULL);
+        if (ms < 0 || H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, NULL, count, NULL) < 0 ||
+            H5Dread(d, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, buf) < 0) {
+            problem(c, full, "frames %llu to %llu cannot be read", (unsigned long long)f0,
+                    (unsigned long long)(f0 + n - 1));
+            goto done;
+        }
+        CLOSE_ID(H5Sclose, ms);
+        for (hsize_t f = f0; f < f0 + n; f++) {
+            const double *x = buf + (size_t)(f - f0) * fvals;
+            if (flags && flags[f] != 1)
+                continue;
+            for (size_t i = 0; i < fvals; i++)
+                if (!isfinite(x[i])) {
+                    if (nbad++ == 0) {
+                        first_f = f;
+                        first_v = i / 3;
+                        first_x = x[i];
+                    }
+                    break;
+                }
+        }
+    }
+    if (nbad)
+        problem(c, full, "%llu of %llu frame%s%s hold%s non-finite coordinates; first frame "
+                "%llu (0-based), vertex %llu (%g)",
+                (unsigned long long)nbad, (unsigned long long)ndone, ndone == 1 ? "" : "s",
+                dn ? " marked done" : "", nbad == 1 ? "s" : "", (unsigned long long)first_f,
+                (unsigned long long)first_v, first_x);
+    if (is_res) {
+        c->nres++;
+        c->res_frames += (long long)T;
+        c->res_checked += (long long)ndone;
+    } else {
+        c->nseq++;
+        c->seq_frames += (long long)T;
+        c->seq_checked += (long long)ndone;
+    }
+done:
+    CLOSE_ID(H5Sclose, ms);
+    CLOSE_ID(H5Sclose, fs);
+    CLOSE_ID(H5Pclose, dcpl);
+    CLOSE_ID(H5Tclose, ft);
+    CLOSE_ID(H5Dclose, d);
+    free(buf);
+    free(flags);
 }
 
 static void check_all_equal(vctx *c, const char *group, const cJSON *spec)
@@ -843,6 +966,8 @@ static void check_one(vctx *c, const char *group, const cJSON *spec)
         check_range(c, group, spec);
     } else if (strcmp(what, "finite") == 0) {
         check_finite(c, group, spec);
+    } else if (strcmp(what, "finite_frames") == 0) {
+        check_finite_frames(c, group, spec);
     } else if (strcmp(what, "all_equal") == 0) {
         check_all_equal(c, group, spec);
     } else if (strcmp(what, "mesh_readable") == 0) {
@@ -1050,6 +1175,23 @@ static void check_top(vctx *c, const cJSON *kinds)
     free_names(&l);
 }
 
+/* "; 3 results, 25 of 27 frames checked (finite; 2 not done); 1 sequence,
+ * 6 of 6 frames checked (finite)", or "" when neither kind was read. */
+static void frames_text(const vctx *c, char *buf, size_t n)
+{
+    int w = 0;
+    buf[0] = '\0';
+    if (c->nres > 0)
+        w = snprintf(buf, n, "; %d result%s, %lld of %lld frames checked (finite%s", c->nres,
+                     c->nres == 1 ? "" : "s", c->res_checked, c->res_frames,
+                     c->res_checked < c->res_frames ? "; " : ")");
+    if (w > 0 && (size_t)w < n && c->res_checked < c->res_frames)
+        w += snprintf(buf + w, n - (size_t)w, "%lld not done)", c->res_frames - c->res_checked);
+    if (w >= 0 && (size_t)w < n && c->nseq > 0)
+        snprintf(buf + w, n - (size_t)w, "; %d sequence%s, %lld of %lld frames checked (finite)",
+                 c->nseq, c->nseq == 1 ? "" : "s", c->seq_checked, c->seq_frames);
+}
+
 /* ================================================================= entry */
 
 dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err)
@@ -1061,6 +1203,7 @@ dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err)
     dtx_status st = DTX_OK;
     htri_t is;
     int root_bad = 0;
+    char frames[300];
 
     dtx_h5_init();
     memset(&c, 0, sizeof c);
@@ -1109,14 +1252,16 @@ dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err)
     cJSON_ArrayForEach(item, kinds) check_kind(&c, item);
     check_top(&c, kinds);
 
+    frames_text(&c, frames, sizeof frames);
     if (c.nproblems == 0)
-        out(&c, "%s: valid dtx layout v%d (%d group%s checked)\n", path, DTX_H5_FORMAT_VERSION,
-            c.nobjects, c.nobjects == 1 ? "" : "s");
+        out(&c, "%s: valid dtx layout v%d (%d group%s checked%s)\n", path,
+            DTX_H5_FORMAT_VERSION, c.nobjects, c.nobjects == 1 ? "" : "s", frames);
     else
         out(&c, "%s: not a valid dtx layout v%d: %d problem%s (%d group%s checked, %d with "
-                "problems%s)\n",
+                "problems%s%s)\n",
             path, DTX_H5_FORMAT_VERSION, c.nproblems, c.nproblems == 1 ? "" : "s", c.nobjects,
-            c.nobjects == 1 ? "" : "s", c.nbad, root_bad ? "; root attributes wrong" : "");
+            c.nobjects == 1 ? "" : "s", c.nbad, root_bad ? "; root attributes wrong" : "",
+            frames);
     if (c.oom) {
         st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory while validating", path);
     } else if (c.nproblems > 0) {

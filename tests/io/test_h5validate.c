@@ -232,7 +232,8 @@ static void test_good(void)
     CHECK(contains(report, "/results/lion: ok\n"));
     CHECK(contains(report, "/results/.dtx-tmp-lion2: note: temporary group"));
     CHECK(contains(report, "/results/by-target/walk: ok\n"));
-    CHECK(contains(report, "valid dtx layout v1 (7 groups checked)"));
+    CHECK(contains(report, "valid dtx layout v1 (7 groups checked; 2 results, 12 of 12 frames "
+                           "checked (finite); 1 sequence, 6 of 6 frames checked (finite))"));
     free(report);
 
     /* Extra top-level objects are noted, not rejected. */
@@ -473,6 +474,138 @@ static void test_bad_unwritten(void)
                "/meshes/lion/faces: needs 12288 bytes, but only 0 bytes are stored");
 }
 
+/* Sets coordinate k of vertex v in frame t of a T x nv x 3 dataset. */
+static void put_coord(hid_t f, const char *path, hsize_t t, hsize_t v, hsize_t k, double x)
+{
+    hsize_t at[3] = {t, v, k}, one = 1;
+    hid_t d = H5Dopen2(f, path, H5P_DEFAULT), fs = H5Dget_space(d);
+    hid_t ms = H5Screate_simple(1, &one, NULL);
+    CHECK(H5Sselect_elements(fs, H5S_SELECT_SET, 1, at) >= 0);
+    CHECK(H5Dwrite(d, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, &x) >= 0);
+    H5Sclose(ms);
+    H5Sclose(fs);
+    H5Dclose(d);
+}
+
+static void put_done(hid_t f, const char *path, const uint8_t *flags)
+{
+    hid_t d = H5Dopen2(f, path, H5P_DEFAULT);
+    CHECK(d >= 0 && H5Dwrite(d, H5T_NATIVE_UINT8, H5S_ALL, H5S_ALL, H5P_DEFAULT, flags) >= 0);
+    H5Dclose(d);
+}
+
+/* A NaN in a frame marked done: the result is not valid, and the problem
+ * names the frame and the vertex.  (Before, the validator read no result
+ * positions at all and called such a file valid.) */
+static void test_bad_nan_result(void)
+{
+    const char *path = SCRATCH "bad-nan.h5";
+    hid_t f;
+    make_good(path);
+    f = reopen(path);
+    put_coord(f, "/results/lion/positions", 3, 2, 1, NAN);
+    put_coord(f, "/results/lion/positions", 5, 0, 0, -INFINITY);
+    done(f);
+    expect_bad(path, "/results/lion/positions: 2 of 6 frames marked done hold non-finite "
+                     "coordinates; first frame 3 (0-based), vertex 2 (nan)",
+               "2 results, 12 of 12 frames checked (finite)");
+}
+
+/* A NaN in a frame not done (complete = 0) is allowed: such frames hold
+ * undefined values.  The summary says how many frames were checked. */
+static void test_nan_not_done(void)
+{
+    const char *path = SCRATCH "nan-not-done.h5";
+    uint8_t flags[T] = {1, 1, 1, 0, 1, 1};
+    dtx_error e;
+    char *report = NULL;
+    hid_t f;
+    int32_t zero = 0;
+    make_good(path);
+    f = reopen(path);
+    put_coord(f, "/results/lion/positions", 3, 2, 1, NAN);
+    put_done(f, "/results/lion/frame_done", flags);
+    CHECK(H5Adelete_by_name(f, "/results/lion", "complete", H5P_DEFAULT) >= 0);
+    CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", zero, &e), &e);
+    done(f);
+    CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
+    CHECK(contains(report, "/results/lion: ok\n"));
+    CHECK(contains(report, "2 results, 11 of 12 frames checked (finite; 1 not done)"));
+    free(report);
+}
+
+/* frame_done holds flags: 0 or 1. */
+static void test_bad_flags(void)
+{
+    const char *path = SCRATCH "bad-flags.h5";
+    uint8_t flags[T] = {1, 1, 7, 1, 1, 1};
+    hid_t f;
+    make_good(path);
+    f = reopen(path);
+    put_done(f, "/results/lion/frame_done", flags);
+    done(f);
+    expect_bad(path, "/results/lion/frame_done: 1 value out of range [0, 2) (at most 1); "
+                     "first 7 at [2, 0]",
+               "/results/lion/frame_done: 1 value out of range");
+}
+
+/* Every frame of a sequence is checked. */
+static void test_bad_nan_sequence(void)
+{
+    const char *path = SCRATCH "bad-nan-seq.h5";
+    hid_t f;
+    make_good(path);
+    f = reopen(path);
+    put_coord(f, "/sequences/walk/positions", 5, 3, 2, INFINITY);
+    done(f);
+    expect_bad(path, "/sequences/walk/positions: 1 of 6 frames holds non-finite coordinates; "
+                     "first frame 5 (0-based), vertex 3 (inf)",
+               "1 sequence, 6 of 6 frames checked (finite)");
+}
+
+/* A result with frames larger than the validator's block (2^21 values):
+ * frames are read a few at a time, and a NaN in the last block, after
+ * blocks without one and a block of frames not done, is found. */
+static void test_blocks(void)
+{
+    enum { BT = 8, BNV = 300000 };
+    const char *path = SCRATCH "blocks.h5";
+    dtx_h5_provenance prov = {"sp04", "{}", "{}", "", "/meshes/big", ""};
+    uint8_t flags[BT] = {1, 1, 1, 0, 0, 0, 1, 1};
+    dtx_error e;
+    dtx_mesh m;
+    dtx_h5_result r;
+    double *Y = dtx_alloc((size_t)BT * BNV, 3 * sizeof(double), 0);
+    char *report = NULL;
+    hid_t f;
+    CHECK(Y != NULL);
+    if (!Y)
+        return;
+    for (size_t i = 0; i < (size_t)BT * BNV * 3; i++)
+        Y[i] = (double)(i % 1000) * 1e-3;
+    make_mesh(&m, BNV, 1.0);
+    CHECK_OK(dtx_h5_create(path, MPI_COMM_NULL, &f, &e), &e);
+    CHECK_OK(dtx_h5_write_mesh(f, "/meshes/big", &m, "big.obj", &e), &e);
+    CHECK_OK(dtx_h5_result_create(f, "/results/big", &prov, BT, BNV, 0, 1, 0, &r, &e), &e);
+    CHECK_OK(dtx_h5_result_write(&r, 0, BT, Y, NULL, 0, &e), &e);
+    dtx_h5_result_close(&r);
+    /* Mark frames 3-5 not done and hide a NaN in frame 4 (not done) and
+     * in frame 7 (done), then commit by hand under the final name. */
+    CHECK(H5Lmove(f, "/results/.dtx-tmp-big", f, "/results/big", H5P_DEFAULT, H5P_DEFAULT) >=
+          0);
+    put_done(f, "/results/big/frame_done", flags);
+    put_coord(f, "/results/big/positions", 4, 10, 0, NAN);
+    put_coord(f, "/results/big/positions", 7, BNV - 1, 2, NAN);
+    CHECK_OK(dtx_h5_close(&f, &e), &e);
+    CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_EFORMAT);
+    CHECK(contains(report, "/results/big/positions: 1 of 5 frames marked done holds non-finite "
+                           "coordinates; first frame 7 (0-based), vertex 299999 (nan)"));
+    CHECK(contains(report, "1 result, 5 of 8 frames checked (finite; 3 not done)"));
+    free(report);
+    free(Y);
+    dtx_mesh_free(&m);
+}
+
 /* Open HDF5 identifiers (see test_h5layout.c). */
 static long count_valid_below(hid_t probe)
 {
@@ -520,6 +653,11 @@ int main(void)
     test_bad_json_and_pairs();
     test_bad_unwritten();
     test_bad_namespace();
+    test_bad_nan_result();
+    test_nan_not_done();
+    test_bad_flags();
+    test_bad_nan_sequence();
+    test_blocks();
     count_ids(after);
     for (int i = 0; i < 4; i++)
         CHECK_EQ_INT(after[i], before[i]);
