@@ -10,6 +10,8 @@
  */
 #include "cmd_diff.h"
 
+#include "options.h"
+
 #include "dtx_core.h"
 #include "h5layout.h"
 
@@ -19,14 +21,14 @@
 #include <stdlib.h>
 #include <string.h>
 
-#define DIFF_USAGE "usage: dtx diff A.h5 B.h5 /results/TARGET/SEQUENCE [--tol REL]\n"
 #define LIST_MAX 8 /* frames named in a message */
 
 static int diff_usage(const char *fmt, const char *a, const char *b)
 {
     fputs("dtx: diff: ", stderr);
     fprintf(stderr, fmt, a, b);
-    fputs("\n" DIFF_USAGE, stderr);
+    fputc('\n', stderr);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("diff"));
     return 2;
 }
 

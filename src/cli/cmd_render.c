@@ -11,6 +11,8 @@
  */
 #include "cmd_render.h"
 
+#include "options.h"
+
 #include "h5layout.h"
 #include "meshfile.h"
 #include "render.h"
@@ -71,7 +73,8 @@ enum { MARK_OK, MARK_NONFINITE, MARK_NOT_DONE };
 
 static int usage(const char *msg)
 {
-    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_RENDER_USAGE);
+    fprintf(stderr, "dtx: %s\n", msg);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("render"));
     return 2;
 }
 

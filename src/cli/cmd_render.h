@@ -7,13 +7,6 @@
 
 #include "status.h"
 
-/* The usage lines of `dtx render`, for the command's usage text. */
-#define DTX_RENDER_USAGE                                                                       \
-    "  dtx render (FILE.h5 [/results/T/S | /sequences/S | /meshes/M] | MESH.(obj|ply|off))\n"  \
-    "             -o OUT.png [--frames 0,4,8 | --count N] [--cols C] [--width W] [--height H]\n" \
-    "             [--view side|front|back|top|AZ,EL] [--up x|y|z] [--flat]\n"                   \
-    "             [--color component|RRGGBB] [--supersample 1..4] [--no-source] [--no-labels]\n"
-
 /* Runs `dtx render` with main's argc/argv (argv[1] == "render").  Returns
  * the exit status: 0 on success, 1 on an error (message on stderr, no
  * output file left), 2 on a usage error. */

@@ -13,6 +13,8 @@
  */
 #include "cmd_report.h"
 
+#include "options.h"
+
 #include "atomic_file.h"
 #include "cmd_render.h"
 #include "h5layout.h"
@@ -39,7 +41,8 @@ typedef struct {
 
 static int usage(const char *msg)
 {
-    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_REPORT_USAGE);
+    fprintf(stderr, "dtx: %s\n", msg);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("report"));
     return 2;
 }
 

@@ -6,10 +6,6 @@
 #ifndef DTX_CMD_REPORT_H
 #define DTX_CMD_REPORT_H
 
-/* The usage lines of `dtx report`, for the command's usage text. */
-#define DTX_REPORT_USAGE                                                                   \
-    "  dtx report FILE.h5 [-o REPORT.md] [--summary FILE.json] [--count N] [--no-pictures]\n"
-
 /* Runs `dtx report` with main's argc/argv (argv[1] == "report").  Writes
  * REPORT.md (default: FILE.h5 with ".h5" replaced by ".report.md") and the
  * pictures into the directory REPORT.md minus ".md" plus "-pictures"

@@ -133,12 +133,12 @@ int dtx_cli_check(const dtx_cli_cmd *c, int argc, char **argv, char *msg, size_t
         if (strcmp(a, "--help") == 0 || strcmp(a, "-h") == 0)
             return 1;
         if (!(o = lookup(c, a))) {
-            snprintf(msg, n, "dtx %s: unknown option %s", c->name, a);
+            snprintf(msg, n, "dtx: %s: unknown option %s", c->name, a);
             return -1;
         }
         if (o->metavar) {
             if (i + 1 >= argc) {
-                snprintf(msg, n, "dtx %s: %s needs a value (%s %s)", c->name, a, a, o->metavar);
+                snprintf(msg, n, "dtx: %s: %s needs a value (%s %s)", c->name, a, a, o->metavar);
                 return -1;
             }
             i++;

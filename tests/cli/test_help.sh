@@ -62,7 +62,7 @@ done
 # Usage errors: exit 2, the command's own usage only, and no file touched.
 out=$("$DTX" diff a.h5 b.h5 /results/x --tolerance 1 2>&1); rc=$?
 check "an unknown option is a usage error (exit 2)" test "$rc" -eq 2
-check "... naming the command and the option" grep -q "dtx diff: unknown option --tolerance" <<<"$out"
+check "... naming the command and the option" grep -q "dtx: diff: unknown option --tolerance" <<<"$out"
 check "... with the command's own usage" grep -q "dtx diff A.h5 B.h5" <<<"$out"
 check "... and not every command's" test "$(grep -c "dtx export" <<<"$out")" -eq 0
 out=$("$DTX" export f.h5 /results/x --pc2 2>&1); rc=$?
