@@ -293,8 +293,31 @@ static double inverted_key(const void *fs, int64_t t)
     return ((const int32_t *)fs)[DTX_H5_FRAME_STATS * t + 2];
 }
 
+/* What a method's per-frame residual is, and its unit (the definitions are
+ * those of src/core: dtx_core.h, transfer_bh.h, springs.h). */
+static const char *residual_meaning(const char *method)
+{
+    if (!method)
+        return "the method's per-frame solver residual";
+    if (strcmp(method, "sp04") == 0)
+        return "sqrt(E / pairs), E the minimised deformation-gradient mismatch: the RMS over "
+               "triangle pairs of the Frobenius norm of (source gradient - target gradient); "
+               "dimensionless (gradients are length ratios), 0 for a perfect transfer";
+    if (strcmp(method, "multicomponent") == 0)
+        return "sqrt(E / pairs) of the final Gauss-Newton iterate, E the whole energy "
+               "(gradient mismatch, smoothness and proximity terms); dimensionless";
+    if (strcmp(method, "springs") == 0)
+        return "sqrt(E / sum_e k_e r_e^2): the RMS relative error of the spring lengths "
+               "against their stretch-ratio rest lengths; a fraction (0.01 = 1%)";
+    if (strcmp(method, "biharmonic") == 0)
+        return "the RMS distance between the key-point fit of the source frame and the source "
+               "frame, as a fraction of the source's bounding-box diagonal";
+    return "the method's per-frame solver residual";
+}
+
 /* Per-frame residuals: a row per frame, or quantiles and the worst frames. */
-static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64_t T)
+static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64_t T,
+                            const char *method)
 {
     double *s = NULL;
     int64_t n = 0;
@@ -305,7 +328,9 @@ static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64
         if (done[t] && isfinite(r[t]))
             s[n++] = r[t];
     qsort(s, (size_t)n, sizeof *s, cmp_dbl);
-    fprintf(f, "Residual per frame (the method's per-frame solver residual):");
+    fprintf(f, "Residual per frame (");
+    md_text(f, residual_meaning(method));
+    fprintf(f, "):");
     if (n == 0) {
         fprintf(f, " none written.\n\n");
         free(s);
@@ -483,7 +508,12 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             fprintf(f, ".)\n\n");
         }
     }
-    write_residuals(f, r, done, res.nframes);
+    {
+        char *method = NULL;
+        dtx_h5_read_attr_str(h, path, "method", &method, NULL);
+        write_residuals(f, r, done, res.nframes, method);
+        free(method);
+    }
     if (res.frame_stats >= 0) {
         int32_t *fs = dtx_alloc((size_t)res.nframes, DTX_H5_FRAME_STATS * sizeof *fs, 0);
         if (!fs) {

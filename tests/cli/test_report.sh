@@ -54,6 +54,8 @@ check "timings table has the key-point phase" grep -q "| key points s |" $M
 pic=$(sed -n 's/^!\[.*\](\(.*\))$/\1/p' $M)
 check "picture linked ($pic)" test -n "$pic"
 check "picture is a PNG" test "$(head -c 8 "$pic" 2>/dev/null | od -An -tx1 | tr -d ' \n')" = 89504e470d0a1a0a
+check "the page says what an sp04 residual is and its unit" \
+    grep -q '^Residual per frame (sqrt(E / pairs), E the minimised deformation-gradient mismatch.*dimensionless' $M
 # The residuals on the page are the file's (h5dump when available, else
 # only their count and finiteness).
 rows=$(grep -cE '^\| [0-2] \| [0-9.e+-]+ \|$' $M)
