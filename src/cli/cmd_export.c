@@ -12,10 +12,9 @@
  *                    the 1-based frame number
  *
  * --stride K exports frames 0, K, 2K, ... to every output (PC2: sample rate
- * K; glb: frame k at time k*K/fps).  A .glb's animation weights grow as the
- * square of its frames, so more than --max-frames (default 1024, at most
- * DTX_GLB_MAX_FRAMES) is refused before anything is written, with the
- * stride that would fit.
+ * K; glb: frame k at time k*K/fps).  A .glb holds at most
+ * DTX_GLB_MAX_FRAMES frames (--max-frames sets a lower cap); more is refused
+ * before anything is written, with the stride that would fit.
  */
 #include "cmd_export.h"
 
@@ -32,7 +31,7 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#define DEFAULT_MAX_FRAMES 1024
+#define DEFAULT_MAX_FRAMES DTX_GLB_MAX_FRAMES
 #define DEFAULT_FPS 24.0
 
 typedef struct {
@@ -406,14 +405,11 @@ int dtx_cmd_export(int argc, char **argv)
         st = source_open(f, a.input, a.item, &s, &mesh, &err);
     if (st == DTX_OK && a.glb && exported_frames(&s) > a.max_frames) {
         int64_t T = exported_frames(&s), k = (s.nframes + a.max_frames - 1) / a.max_frames;
-        double kib = 4.0 * (double)T * (double)T / 1024.0;
         st = dtx_seterr(&err, DTX_EINVAL,
-                        "%s: %lld frames to export, more than --max-frames %d: a glTF "
-                        "animation of N morph targets stores N x N weights (%.4g %s here); "
-                        "export one frame in %lld with --stride %lld, or raise --max-frames "
-                        "(at most %d)",
-                        a.glb, (long long)T, a.max_frames, kib < 1024.0 ? kib : kib / 1024.0,
-                        kib < 1024.0 ? "KiB" : "MiB", (long long)k, (long long)k,
+                        "%s: %lld frames to export, more than --max-frames %d; export one "
+                        "frame in %lld with --stride %lld, or raise --max-frames (a .glb holds "
+                        "at most %d)",
+                        a.glb, (long long)T, a.max_frames, (long long)k, (long long)k,
                         DTX_GLB_MAX_FRAMES);
     }
     if (st == DTX_OK && a.obj_rest)

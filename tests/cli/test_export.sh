@@ -164,8 +164,8 @@ reject 2 '--stride must be a whole number >= 1' x.glb "$DTX" export out.h5 $R --
 reject 2 '--stride must be' x.glb "$DTX" export out.h5 $R --glb x.glb --stride 2x
 reject 2 '--fps must be a number > 0' x.glb "$DTX" export out.h5 $R --glb x.glb --fps 0
 reject 2 '--fps must be' x.glb "$DTX" export out.h5 $R --glb x.glb --fps nan
-reject 2 '--max-frames must be a whole number from 1 to 4096' x.glb \
-    "$DTX" export out.h5 $R --glb x.glb --max-frames 5000
+reject 2 '--max-frames must be a whole number from 1 to 65535' x.glb \
+    "$DTX" export out.h5 $R --glb x.glb --max-frames 65536
 reject 2 '--fps, --step and --max-frames go with --glb' x.pc2 \
     "$DTX" export out.h5 $R --pc2 x.pc2 --fps 30
 reject 2 '--start-frame goes with --pc2' x.glb "$DTX" export out.h5 $R --glb x.glb --start-frame 2
