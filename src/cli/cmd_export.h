@@ -10,7 +10,7 @@
 #define DTX_EXPORT_USAGE                                                                     \
     "  dtx export FILE.h5 (/results/TARGET/SEQUENCE | /sequences/SEQUENCE) [--stride K]\n"   \
     "             [--obj-dir DIR] [--obj-rest REST.obj] [--pc2 OUT.pc2 [--start-frame F]]\n" \
-    "             [--glb OUT.glb [--fps N] [--step] [--max-frames N]]\n"
+    "             [--mdd OUT.mdd] [--glb OUT.glb [--step] [--max-frames N]] [--fps F]\n"
 
 /* Runs `dtx export` with main's argc/argv (argv[1] == "export").  Returns
  * the exit status: 0 on success, 1 on an error (message on stderr; no

@@ -166,8 +166,10 @@ reject 2 '--fps must be a number > 0' x.glb "$DTX" export out.h5 $R --glb x.glb 
 reject 2 '--fps must be' x.glb "$DTX" export out.h5 $R --glb x.glb --fps nan
 reject 2 '--max-frames must be a whole number from 1 to 65535' x.glb \
     "$DTX" export out.h5 $R --glb x.glb --max-frames 65536
-reject 2 '--fps, --step and --max-frames go with --glb' x.pc2 \
+reject 2 '--fps goes with --glb or --mdd' x.pc2 \
     "$DTX" export out.h5 $R --pc2 x.pc2 --fps 30
+reject 2 '--step and --max-frames go with --glb' x.mdd \
+    "$DTX" export out.h5 $R --mdd x.mdd --step
 reject 2 '--start-frame goes with --pc2' x.glb "$DTX" export out.h5 $R --glb x.glb --start-frame 2
 reject 2 'unknown option --frobnicate' x.glb "$DTX" export out.h5 $R --glb x.glb --frobnicate
 reject 2 '--glb needs a value' x.glb "$DTX" export out.h5 $R --glb
