@@ -141,7 +141,7 @@ static const char *parse_args(int argc, char **argv, export_args *a, char *buf, 
 
     a->stride = 1;
     a->fps = 0.0; /* the item's own frame rate unless --fps */
-    a->start_frame = 1.0;
+    a->start_frame = 0.0; /* Blender plays sample k at scene frame k */
     a->max_frames = DEFAULT_MAX_FRAMES;
     if (a->stride_s) {
         char *end;

@@ -61,11 +61,11 @@ R=/results/lion/cat-poses
 check "export PC2, rest OBJ, glb and OBJ frames" \
     "$DTX" export out.h5 $R --pc2 lion.pc2 --obj-rest lion.obj --glb lion.glb --obj-dir frames
 
-# PC2: "POINTCACHE2\0", version 1, 5000 points, start 1.0, rate 1.0, 9 samples
+# PC2: "POINTCACHE2\0", version 1, 5000 points, start 0.0, rate 1.0, 9 samples
 check "PC2 signature" test "$(head -c 12 lion.pc2 | od -An -c | tr -d ' \n')" = 'POINTCACHE2\0'
 check "PC2 version 1" test "$(hex32 lion.pc2 12)" = 00000001
 check "PC2 5000 points" test "$((16#$(hex32 lion.pc2 16)))" -eq 5000
-check "PC2 start frame 1.0" test "$(hex32 lion.pc2 20)" = 3f800000
+check "PC2 start frame 0.0" test "$(hex32 lion.pc2 20)" = 00000000
 check "PC2 sample rate 1.0" test "$(hex32 lion.pc2 24)" = 3f800000
 check "PC2 9 samples" test "$((16#$(hex32 lion.pc2 28)))" -eq 9
 check "PC2 size 32 + 12 x 5000 x 9" test "$(stat -c %s lion.pc2)" -eq $((32 + 12 * 5000 * 9))
