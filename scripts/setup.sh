@@ -6,8 +6,9 @@
 # Checks every package with dpkg-query and installs only the missing ones
 # (apt-get update first, and only then). Needs root for that: runs apt-get
 # through sudo when not root. When everything is present it prints one line and
-# takes well under a second. The Python packages (used by helper scripts, not by
-# the build) are optional: failing to install them is a warning, not an error.
+# takes well under a second. The optional list (a failure to install is a
+# warning) is empty today: Debian's python3-h5py and python3-numpy are required,
+# since io.layout_doc_example and cli.export read results with them.
 # Everything a CI test needs is required: Debian's blender (cli.blender),
 # chromium (the browser workbench), nodejs and npm (only when node/npm are not
 # already on PATH, e.g. from nodesource), libassimp-dev (glTF/FBX import), clang
@@ -20,12 +21,13 @@ die() { echo "setup: error: $*" >&2; exit 1; }
 
 required=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
           hdf5-tools libsuitesparse-dev libopenblas-dev liblapack-dev libcjson-dev libpng-dev
-          xz-utils valgrind blender chromium libassimp-dev clang libclang-rt-14-dev)
+          xz-utils valgrind blender chromium libassimp-dev clang libclang-rt-14-dev
+          python3-h5py python3-numpy)
 # Debian's nodejs and npm only when no node/npm is on PATH (a nodesource node
 # ships its own npm and conflicts with Debian's npm package).
 command -v node > /dev/null || required+=(nodejs)
 command -v npm > /dev/null || required+=(npm)
-optional=(python3-h5py python3-numpy)
+optional=()
 
 command -v dpkg-query > /dev/null || die "dpkg-query not found: this script is for Debian 12"
 

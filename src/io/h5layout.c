@@ -2726,3 +2726,13 @@ dtx_status dtx_h5_read_fps(hid_t loc, const char *obj, double *fps, int *stored,
     CLOSE_ID(H5Aclose, a);
     return st;
 }
+
+dtx_status dtx_h5_copy_fps(hid_t from, hid_t to, dtx_error *err)
+{
+    double fps;
+    int stored;
+    dtx_status st = dtx_h5_read_fps(from, ".", &fps, &stored, err);
+    if (st == DTX_OK && stored)
+        st = dtx_h5_write_fps(to, ".", fps, err);
+    return st;
+}

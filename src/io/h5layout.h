@@ -534,4 +534,9 @@ dtx_status dtx_h5_write_fps(hid_t loc, const char *obj, double fps, dtx_error *e
  * A stored value that is not a float or out of range is DTX_EFORMAT. */
 dtx_status dtx_h5_read_fps(hid_t loc, const char *obj, double *fps, int *stored, dtx_error *err);
 
+/* Copies attribute fps from the object `from` to the object `to` (open
+ * groups) when `from` has one; nothing otherwise.  On a parallel file,
+ * collective: every rank calls. */
+dtx_status dtx_h5_copy_fps(hid_t from, hid_t to, dtx_error *err);
+
 #endif /* DTX_H5LAYOUT_H */
