@@ -6,17 +6,28 @@
 # Checks every package with dpkg-query and installs only the missing ones
 # (apt-get update first, and only then). Needs root for that: runs apt-get
 # through sudo when not root. When everything is present it prints one line and
-# takes well under a second. The Python packages (used by helper scripts, not by
-# the build) are optional: failing to install them is a warning, not an error.
-# So is the glTF validator (npm, into build-tools/; needs node and npm).
+# takes well under a second. The optional list (a failure to install is a
+# warning) is empty today: Debian's python3-h5py and python3-numpy are required,
+# since io.layout_doc_example and cli.export read results with them.
+# Everything a CI test needs is required: Debian's blender (cli.blender),
+# chromium (the browser workbench), nodejs and npm (only when node/npm are not
+# already on PATH, e.g. from nodesource), libassimp-dev (glTF/FBX import), clang
+# and libclang-rt-14-dev (the fuzzers); then npm packages, pinned, into
+# build-tools/ (ignored by git): gltf-validator (cli.gltf_validator), three and
+# puppeteer-core (which downloads no browser; it drives Debian's chromium).
 set -euo pipefail
 
 die() { echo "setup: error: $*" >&2; exit 1; }
 
 required=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
           hdf5-tools libsuitesparse-dev libopenblas-dev liblapack-dev libcjson-dev libpng-dev
-          xz-utils valgrind)
-optional=(python3-h5py python3-numpy)
+          xz-utils valgrind blender chromium libassimp-dev clang libclang-rt-14-dev
+          python3-h5py python3-numpy)
+# Debian's nodejs and npm only when no node/npm is on PATH (a nodesource node
+# ships its own npm and conflicts with Debian's npm package).
+command -v node > /dev/null || required+=(nodejs)
+command -v npm > /dev/null || required+=(npm)
+optional=()
 
 command -v dpkg-query > /dev/null || die "dpkg-query not found: this script is for Debian 12"
 
@@ -33,24 +44,27 @@ missing_opt=()
 for p in "${required[@]}"; do [[ -n ${installed[$p]:-} ]] || missing_req+=("$p"); done
 for p in "${optional[@]}"; do [[ -n ${installed[$p]:-} ]] || missing_opt+=("$p"); done
 
-# The Khronos glTF validator (npm package gltf-validator), used only by the
-# test of `dtx export --glb`; installed into build-tools/ in the source tree
-# (ignored by git) when node and npm are present. Optional: without it that test
-# is skipped, so a failure here is a warning.
-gltf_validator() {
-    local dir
+
+# npm packages (pinned) into build-tools/ in the source tree: the Khronos glTF
+# validator, three and puppeteer-core.  Checked by their package.json files, so
+# a second run does not call npm.  Required: a failure is an error.
+npm_tools() {
+    local dir p missing=()
     dir=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/build-tools
-    [[ -f $dir/node_modules/gltf-validator/package.json ]] && return 0
-    command -v node > /dev/null && command -v npm > /dev/null || return 0
-    echo "setup: installing gltf-validator (npm) into $dir"
-    mkdir -p "$dir" && npm install --prefix "$dir" --no-audit --no-fund --silent --fetch-retries=1 \
-        gltf-validator@2.0.0-dev.3.10 < /dev/null > /dev/null ||
-        echo "setup: warning: npm install gltf-validator failed; its test will be skipped" >&2
+    for p in gltf-validator@2.0.0-dev.3.10 three@0.187.0 puppeteer-core@25.16.0; do
+        [[ -f $dir/node_modules/${p%@*}/package.json ]] || missing+=("$p")
+    done
+    [[ ${#missing[@]} -eq 0 ]] && return 0
+    command -v npm > /dev/null || die "npm not found after installing packages"
+    echo "setup: installing ${missing[*]} (npm) into $dir"
+    mkdir -p "$dir" && PUPPETEER_SKIP_DOWNLOAD=1 npm install --prefix "$dir" --no-audit --no-fund \
+        --silent --fetch-retries=1 "${missing[@]}" < /dev/null > /dev/null ||
+        die "npm install ${missing[*]} failed"
 }
-gltf_validator
 
 missing=("${missing_req[@]}" "${missing_opt[@]}")
 if [[ ${#missing[@]} -eq 0 ]]; then
+    npm_tools
     echo "setup: all dependencies present"
     exit 0
 fi
@@ -77,4 +91,5 @@ if [[ ${#missing_opt[@]} -gt 0 ]]; then
     apt_install "${missing_opt[@]}" ||
         echo "setup: warning: could not install optional ${missing_opt[*]}" >&2
 fi
+npm_tools
 echo "setup: done"

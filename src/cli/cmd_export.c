@@ -6,21 +6,26 @@
  *
  *   --obj-rest FILE  the mesh as OBJ (what a PC2 cache is applied to)
  *   --pc2 FILE       a PC2 point cache, one sample per exported frame
+ *   --mdd FILE       an MDD point cache, the same samples with their times
+ *                    in seconds (k * K / fps)
  *   --glb FILE       glTF 2.0 binary: the mesh, the frames as morph targets
  *                    and an animation over them
  *   --obj-dir DIR    one OBJ per exported frame, DIR/<name>-NNNNN.obj with
  *                    the 1-based frame number
  *
  * --stride K exports frames 0, K, 2K, ... to every output (PC2: sample rate
- * K; glb: frame k at time k*K/fps).  A .glb's animation weights grow as the
- * square of its frames, so more than --max-frames (default 1024, at most
- * DTX_GLB_MAX_FRAMES) is refused before anything is written, with the
- * stride that would fit.
+ * K; glb and MDD: frame k at time k*K/fps).  fps is the item's stored frame
+ * rate (attribute fps; 24 when it has none), or --fps.  A .glb holds at most
+ * DTX_GLB_MAX_FRAMES frames (--max-frames sets a lower cap); more is refused
+ * before anything is written, with the stride that would fit.
  */
 #include "cmd_export.h"
 
+#include "options.h"
+
 #include "gltf.h"
 #include "h5layout.h"
+#include "mdd.h"
 #include "meshfile.h"
 #include "pc2.h"
 
@@ -32,12 +37,11 @@
 #include <string.h>
 #include <sys/stat.h>
 
-#define DEFAULT_MAX_FRAMES 1024
-#define DEFAULT_FPS 24.0
+#define DEFAULT_MAX_FRAMES DTX_GLB_MAX_FRAMES
 
 typedef struct {
     const char *input, *item;
-    const char *obj_dir, *obj_rest, *pc2, *glb;
+    const char *obj_dir, *obj_rest, *pc2, *glb, *mdd;
     const char *stride_s, *fps_s, *start_s, *max_s;
     int step;
     /* parsed */
@@ -54,11 +58,14 @@ typedef struct {
     int64_t nframes; /* frames in the file */
     int32_t nv;
     int64_t stride;
+    double fps;     /* frames per second: --fps, else the item's, else 24 */
+    int fps_stored; /* the item stores its frame rate */
 } frame_source;
 
 static int usage(const char *msg)
 {
-    fprintf(stderr, "dtx: %s\nusage:\n%s", msg, DTX_EXPORT_USAGE);
+    fprintf(stderr, "dtx: %s\n", msg);
+    dtx_cli_print_usage(stderr, dtx_cli_find_name("export"));
     return 2;
 }
 
@@ -84,6 +91,7 @@ static const char *parse_args(int argc, char **argv, export_args *a, char *buf, 
         {"--obj-rest", offsetof(export_args, obj_rest)},
         {"--pc2", offsetof(export_args, pc2)},
         {"--glb", offsetof(export_args, glb)},
+        {"--mdd", offsetof(export_args, mdd)},
         {"--stride", offsetof(export_args, stride_s)},
         {"--fps", offsetof(export_args, fps_s)},
         {"--start-frame", offsetof(export_args, start_s)},
@@ -124,17 +132,19 @@ static const char *parse_args(int argc, char **argv, export_args *a, char *buf, 
     }
     if (!a->input || !a->item)
         return "export needs FILE.h5 and a result or sequence path";
-    if (!a->obj_dir && !a->obj_rest && !a->pc2 && !a->glb)
+    if (!a->obj_dir && !a->obj_rest && !a->pc2 && !a->glb && !a->mdd)
         return "export needs at least one of --obj-dir DIR, --obj-rest FILE, --pc2 FILE, "
-               "--glb FILE";
+               "--mdd FILE, --glb FILE";
     if (!a->pc2 && a->start_s)
         return "export: --start-frame goes with --pc2";
-    if (!a->glb && (a->fps_s || a->max_s || a->step))
-        return "export: --fps, --step and --max-frames go with --glb";
+    if (!a->glb && (a->max_s || a->step))
+        return "export: --step and --max-frames go with --glb";
+    if (!a->glb && !a->mdd && a->fps_s)
+        return "export: --fps goes with --glb or --mdd (the outputs with times in seconds)";
 
     a->stride = 1;
-    a->fps = DEFAULT_FPS;
-    a->start_frame = 1.0;
+    a->fps = 0.0; /* the item's own frame rate unless --fps */
+    a->start_frame = 0.0; /* Blender plays sample k at scene frame k */
     a->max_frames = DEFAULT_MAX_FRAMES;
     if (a->stride_s) {
         char *end;
@@ -161,8 +171,8 @@ static const char *parse_args(int argc, char **argv, export_args *a, char *buf, 
         char *end;
         errno = 0;
         a->fps = strtod(a->fps_s, &end);
-        if (errno || *end || end == a->fps_s || !isfinite(a->fps) || !(a->fps > 0.0))
-            return "export: --fps must be a number > 0";
+        if (errno || *end || end == a->fps_s || !(a->fps > 0.0) || !(a->fps <= DTX_H5_FPS_MAX))
+            return "export: --fps must be a number > 0 (at most 1e6)";
     }
     if (a->start_s) {
         char *end;
@@ -292,6 +302,8 @@ static dtx_status source_open(hid_t f, const char *file, const char *path, frame
                         path, (int)s->nv, sub, (int)mesh->nv);
     if (st == DTX_OK && s->nframes < 1)
         st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no frames", file, path);
+    if (st == DTX_OK)
+        st = dtx_h5_read_fps(f, path, &s->fps, &s->fps_stored, err);
     return st;
 }
 
@@ -333,6 +345,38 @@ static dtx_status write_pc2(frame_source *s, const export_args *a, double *X, dt
     return st;
 }
 
+static dtx_status write_mdd(frame_source *s, const export_args *a, double *X, dtx_error *err)
+{
+    dtx_mdd_writer w;
+    int64_t T = exported_frames(s);
+    float *times;
+    dtx_status st = DTX_OK;
+    if (T > INT32_MAX)
+        return dtx_seterr(err, DTX_ERANGE, "%s: %lld frames; MDD holds at most %d", a->mdd,
+                          (long long)T, (int)INT32_MAX);
+    times = dtx_alloc((size_t)T, sizeof *times, 0);
+    if (!times)
+        return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for %lld times", a->mdd,
+                          (long long)T);
+    for (int64_t k = 0; k < T; k++)
+        times[k] = (float)((double)(k * s->stride) / s->fps);
+    st = dtx_mdd_begin(&w, a->mdd, s->nv, (int32_t)T, times, err);
+    free(times);
+    for (int64_t k = 0; st == DTX_OK && k < T; k++) {
+        st = read_frame(s, k, X, err);
+        if (st == DTX_OK)
+            st = dtx_mdd_write_sample(&w, X, err);
+    }
+    if (st == DTX_OK)
+        st = dtx_mdd_finish(&w, err);
+    else
+        dtx_mdd_abort(&w);
+    if (st == DTX_OK)
+        fprintf(stderr, "dtx: %lld frames x %d points -> %s (MDD, %.4g s apart)\n", (long long)T,
+                (int)s->nv, a->mdd, (double)s->stride / s->fps);
+    return st;
+}
+
 static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mesh *mesh,
                             const char *file, dtx_error *err)
 {
@@ -341,7 +385,7 @@ static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mes
     const char *name = strrchr(a->item, '/');
     dtx_status st;
     memset(&o, 0, sizeof o);
-    o.seconds_per_frame = (double)s->stride / a->fps;
+    o.seconds_per_frame = (double)s->stride / s->fps;
     o.step = a->step;
     o.name = name && name[1] ? name + 1 : a->item;
     o.label_first = 1;
@@ -406,14 +450,11 @@ int dtx_cmd_export(int argc, char **argv)
         st = source_open(f, a.input, a.item, &s, &mesh, &err);
     if (st == DTX_OK && a.glb && exported_frames(&s) > a.max_frames) {
         int64_t T = exported_frames(&s), k = (s.nframes + a.max_frames - 1) / a.max_frames;
-        double kib = 4.0 * (double)T * (double)T / 1024.0;
         st = dtx_seterr(&err, DTX_EINVAL,
-                        "%s: %lld frames to export, more than --max-frames %d: a glTF "
-                        "animation of N morph targets stores N x N weights (%.4g %s here); "
-                        "export one frame in %lld with --stride %lld, or raise --max-frames "
-                        "(at most %d)",
-                        a.glb, (long long)T, a.max_frames, kib < 1024.0 ? kib : kib / 1024.0,
-                        kib < 1024.0 ? "KiB" : "MiB", (long long)k, (long long)k,
+                        "%s: %lld frames to export, more than --max-frames %d; export one "
+                        "frame in %lld with --stride %lld, or raise --max-frames (a .glb holds "
+                        "at most %d)",
+                        a.glb, (long long)T, a.max_frames, (long long)k, (long long)k,
                         DTX_GLB_MAX_FRAMES);
     }
     if (st == DTX_OK && a.obj_rest)
@@ -422,6 +463,15 @@ int dtx_cmd_export(int argc, char **argv)
         st = check_output(a.pc2, &err);
     if (st == DTX_OK && a.glb)
         st = check_output(a.glb, &err);
+    if (st == DTX_OK && a.mdd)
+        st = check_output(a.mdd, &err);
+    if (st == DTX_OK && a.fps > 0.0)
+        s.fps = a.fps; /* --fps overrides the stored rate */
+    if (st == DTX_OK && (a.glb || a.mdd))
+        fprintf(stderr, "dtx: %.6g frames per second (%s)\n", s.fps,
+                a.fps > 0.0      ? "--fps"
+                : s.fps_stored ? "stored with the frames"
+                               : "none stored: 24 assumed; set it with --fps");
     if (st == DTX_OK) {
         X = dtx_alloc((size_t)s.nv, 3 * sizeof *X, 0);
         if (!X)
@@ -438,6 +488,8 @@ int dtx_cmd_export(int argc, char **argv)
     }
     if (st == DTX_OK && a.pc2)
         st = write_pc2(&s, &a, X, &err);
+    if (st == DTX_OK && a.mdd)
+        st = write_mdd(&s, &a, X, &err);
     if (st == DTX_OK && a.glb)
         st = write_glb(&s, &a, &mesh, a.input, &err);
     if (st == DTX_OK && a.obj_dir)

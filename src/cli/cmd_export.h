@@ -6,12 +6,6 @@
 #ifndef DTX_CMD_EXPORT_H
 #define DTX_CMD_EXPORT_H
 
-/* The usage lines of `dtx export`, for the command's usage text. */
-#define DTX_EXPORT_USAGE                                                                     \
-    "  dtx export FILE.h5 (/results/TARGET/SEQUENCE | /sequences/SEQUENCE) [--stride K]\n"   \
-    "             [--obj-dir DIR] [--obj-rest REST.obj] [--pc2 OUT.pc2 [--start-frame F]]\n" \
-    "             [--glb OUT.glb [--fps N] [--step] [--max-frames N]]\n"
-
 /* Runs `dtx export` with main's argc/argv (argv[1] == "export").  Returns
  * the exit status: 0 on success, 1 on an error (message on stderr; no
  * partial output file is left), 2 on a usage error. */

@@ -44,7 +44,8 @@ static int known_attr(dtx_h5_kind k, const char *name)
                                          "dtx_version", "source_sequence",
                                          "target_mesh", "correspondence",
                                          "source",      "source_mesh",
-                                         "markers",     "key"};
+                                         "markers",     "key",
+                                         "fps"};
     if (k == DTX_H5_KIND_OTHER)
         return 0;
     for (size_t i = 0; i < sizeof common / sizeof *common; i++)
@@ -76,6 +77,16 @@ static void detail(FILE *o, const char *label, const char *value)
     fprintf(o, "      %-16s ", label);
     show(o, value);
     fputc('\n', o);
+}
+
+/* The frame rate of a sequence or result: its attribute fps, or the 24
+ * that exports assume when it has none (files from before the attribute). */
+static void frame_rate(FILE *o, const char *fps)
+{
+    if (fps)
+        detail(o, "fps", fps);
+    else
+        fprintf(o, "      %-16s 24 (none stored; exports assume 24, or take --fps)\n", "fps");
 }
 
 static void job_hash(const char *job, char hex[17])
@@ -117,6 +128,7 @@ static void print_item(FILE *o, const dtx_h5_item *it)
                     it->is_f64 ? "float64" : "float32");
         fputc('\n', o);
         detail(o, "rest mesh", it->mesh);
+        frame_rate(o, attr(it, "fps"));
         break;
     case DTX_H5_KIND_MARKERS:
         if (it->count >= 0)
@@ -146,6 +158,7 @@ static void print_item(FILE *o, const dtx_h5_item *it)
                     it->is_f64 ? "float64" : "float32");
         fputc('\n', o);
         detail(o, "method", attr(it, "method"));
+        frame_rate(o, attr(it, "fps"));
         detail(o, "source sequence", attr(it, "source_sequence"));
         detail(o, "target mesh", it->mesh);
         detail(o, "correspondence", attr(it, "correspondence"));

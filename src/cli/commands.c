@@ -37,6 +37,8 @@ static const dtx_cli_opt import_sequence_opts[] = {
     {"--mesh", "/meshes/MESH", "the rest mesh every frame must match (vertex count and faces)"},
     {"--dtype", "float32|float64", "how positions are stored (default float32)"},
     {"--compress", "none|gzip", "compression of the positions (default none: gzip saves ~1.4:1)"},
+    {"--fps", "F", "the sequence's frame rate, stored and used by every export (default: none "
+                   "stored, exports assume 24)"},
     {NULL, NULL, NULL},
 };
 
@@ -44,7 +46,7 @@ static const dtx_cli_cmd import_sequence = {
     "import sequence",
     "add an animation (a folder or a list of mesh files, one per frame)",
     "dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
-    "                    [--dtype float32|float64] [--compress none|gzip]",
+    "                    [--dtype float32|float64] [--compress none|gzip] [--fps F]",
     "A folder's mesh files are taken in natural order (cat-2 before cat-10).  Every\n"
     "frame must have the rest mesh's vertex count and faces.",
     import_sequence_opts,
@@ -134,27 +136,29 @@ static const dtx_cli_cmd keypoints = {
 
 static const dtx_cli_opt export_opts[] = {
     {"--obj-dir", "DIR", "one OBJ per exported frame, DIR/<name>-NNNNN.obj (1-based)"},
-    {"--obj-rest", "REST.obj", "the mesh as OBJ (what a PC2 cache is applied to)"},
+    {"--obj-rest", "REST.obj", "the mesh as OBJ (what a PC2 or MDD cache is applied to)"},
     {"--pc2", "OUT.pc2", "a PC2 point cache, one sample per exported frame"},
+    {"--start-frame", "F", "the PC2's start frame (default 0: sample k plays at frame k)"},
+    {"--mdd", "OUT.mdd", "an MDD point cache, the same samples with their times in seconds"},
     {"--glb", "OUT.glb", "glTF 2.0 binary: the mesh, the frames as morph targets, an animation"},
-    {"--stride", "K", "export frames 0, K, 2K, ... (default 1)"},
-    {"--start-frame", "F", "the PC2's start frame (default 1)"},
-    {"--fps", "N", "the glb animation's frame rate (default 24)"},
     {"--step", NULL, "glb: step between frames instead of interpolating"},
-    {"--max-frames", "N", "glb: most frames allowed (default 1024)"},
+    {"--max-frames", "N", "glb: refuse more frames than N (default and most: 65535)"},
+    {"--stride", "K", "export frames 0, K, 2K, ... (default 1)"},
+    {"--fps", "F", "frames per second for glb and MDD times (default: the stored rate, else 24)"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd export_ = {
     "export",
-    "write a result or sequence as OBJ frames, PC2 or glb",
+    "write a result or sequence as OBJ frames, PC2, MDD or glb",
     "dtx export FILE.h5 (/results/TARGET/SEQUENCE | /sequences/SEQUENCE) [--stride K]\n"
     "           [--obj-dir DIR] [--obj-rest REST.obj] [--pc2 OUT.pc2 [--start-frame F]]\n"
-    "           [--glb OUT.glb [--fps N] [--step] [--max-frames N]]",
-    "Every file is written atomically; a result must have all its frames.",
+    "           [--mdd OUT.mdd] [--glb OUT.glb [--step] [--max-frames N]] [--fps F]",
+    "Every file is written atomically; a result must have all its frames.  The README\n"
+    "section \"Using results in Blender\" shows how each file plays there.",
     export_opts,
-    "dtx export out.h5 /results/lion/cat-poses --obj-rest lion.obj --pc2 lion.pc2\n"
-    "dtx export out.h5 /results/lion/cat-poses --glb lion.glb",
+    "dtx export out.h5 /results/lion/cat-poses --obj-rest lion.obj --pc2 lion.pc2 --mdd lion.mdd\n"
+    "dtx export out.h5 /results/lion/cat-poses --glb lion.glb --fps 30",
     1,
 };
 

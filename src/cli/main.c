@@ -123,7 +123,7 @@ static int is_flag_with_value(const char *a)
 {
     static const char *const names[] = {"-o",       "--name",   "--mesh",    "--dtype",
                                         "--index-base", "--source", "--target",
-                                        "--summary", "--tol", "--compress"};
+                                        "--summary", "--tol", "--compress", "--fps"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++)
         if (strcmp(a, names[i]) == 0)
             return 1;
@@ -317,8 +317,9 @@ static int cmd_import_sequence(int argc, char **argv)
     int npos = positionals(argc, argv, 3, pos, 100000), nframes = 0, created = 0;
     const char *out = opt(argc, argv, "-o"), *name = opt(argc, argv, "--name"),
                *mesh = opt(argc, argv, "--mesh"), *dtype = opt(argc, argv, "--dtype"),
-               *compress = opt(argc, argv, "--compress");
+               *compress = opt(argc, argv, "--compress"), *fps_s = opt(argc, argv, "--fps");
     char **files = NULL, group[DTX_H5_PATH_MAX];
+    double fps = 0.0; /* 0: not given, none stored (readers assume 24) */
     dtx_error err;
     dtx_status st;
     dtx_mesh rest, fr;
@@ -341,6 +342,12 @@ static int cmd_import_sequence(int argc, char **argv)
         gzip = 1;
     else if (compress && strcmp(compress, "none") != 0)
         return usage("--compress must be none or gzip");
+    if (fps_s) {
+        char *end;
+        fps = strtod(fps_s, &end);
+        if (*end || end == fps_s || !(fps > 0.0) || !(fps <= DTX_H5_FPS_MAX))
+            return usage("--fps must be a number > 0 (frames per second, at most 1e6)");
+    }
     memset(&rest, 0, sizeof rest);
     memset(&seq, 0, sizeof seq);
     files = frame_list(pos, npos, &nframes, &err);
@@ -393,6 +400,8 @@ static int cmd_import_sequence(int argc, char **argv)
             st = dtx_h5_write_frame_names(&seq, names, nframes, &err);
         free(names);
     }
+    if (st == DTX_OK && fps > 0.0)
+        st = dtx_h5_write_fps(seq.group, ".", fps, &err);
     if (st == DTX_OK)
         st = dtx_h5_seq_commit(&seq, &err);
     dtx_h5_seq_close(&seq);

@@ -1206,6 +1206,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
                                       tc->weld.nv, r->job.output_dtype == DTX_DTYPE_FLOAT64,
                                       r->align, 0, &rc->res, err);
             rc->open = st == DTX_OK;
+            if (st == DTX_OK) /* the source sequence's frame rate, when it has one */
+                st = dtx_h5_copy_fps(r->sq[s].seq.group, rc->res.group, err);
             if (st == DTX_OK && iterative_method(&r->job))
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
         }

@@ -231,7 +231,7 @@ static dtx_status frame_deltas(const char *path, const dtx_mesh *rest, int64_t k
 
 /* Sizes and offsets of the BIN chunk, in bytes. */
 typedef struct {
-    uint64_t pos, nrm, idx, idx_len, morph, morph_len, times, weights, weights_len, total;
+    uint64_t pos, nrm, idx, idx_len, morph, morph_len, times, sp_idx, sp_val, total;
     int ushort; /* indices as UNSIGNED_SHORT */
 } layout;
 
@@ -246,9 +246,9 @@ static void make_layout(const dtx_mesh *m, int64_t T, layout *L)
     L->morph = align4(L->idx + L->idx_len);
     L->morph_len = vbytes * (uint64_t)T;
     L->times = L->morph + L->morph_len;
-    L->weights = L->times + 4u * (uint64_t)T;
-    L->weights_len = 4u * (uint64_t)T * (uint64_t)T;
-    L->total = L->weights + L->weights_len;
+    L->sp_idx = L->times + 4u * (uint64_t)T;
+    L->sp_val = L->sp_idx + 4u * (uint64_t)T;
+    L->total = L->sp_val + 4u * (uint64_t)T;
 }
 
 /* The JSON document.  B: T x 6 delta bounds; times: T floats. */
@@ -299,7 +299,7 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
         jstr(j, names, NULL, buf);
     }
 
-    /* ---- animation: the weights, one-hot per key */
+    /* ---- animation: the weights, one-hot per key (a sparse accessor) */
     anim = jobj(j, jarr(j, root, "animations"), NULL);
     jstr(j, anim, "name", "frames");
     smp = jobj(j, jarr(j, anim, "samplers"), NULL);
@@ -320,7 +320,8 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
     buffer_view(j, views, L->idx, L->idx_len, 0, GL_ELEMENT_ARRAY_BUFFER);
     buffer_view(j, views, L->morph, L->morph_len, 12, GL_ARRAY_BUFFER);
     buffer_view(j, views, L->times, 4u * (uint64_t)T, 0, 0);
-    buffer_view(j, views, L->weights, L->weights_len, 0, 0);
+    buffer_view(j, views, L->sp_idx, 4u * (uint64_t)T, 0, 0);
+    buffer_view(j, views, L->sp_val, 4u * (uint64_t)T, 0, 0);
 
     accs = jarr(j, root, "accessors");
     x = accessor(j, accs, 0, 0, GL_FLOAT, m->nv, "VEC3");
@@ -337,7 +338,18 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
     x = accessor(j, accs, 4, 0, GL_FLOAT, T, "SCALAR");
     jflt(j, jarr(j, x, "min"), NULL, times[0]);
     jflt(j, jarr(j, x, "max"), NULL, times[T - 1]);
-    accessor(j, accs, 5, 0, GL_FLOAT, T * T, "SCALAR");
+    /* The T x T one-hot weights: no buffer view (all zeros) and T sparse
+     * entries, the 1 of key k at index k * T + k. */
+    x = jobj(j, accs, NULL);
+    jint(j, x, "componentType", GL_FLOAT);
+    jint(j, x, "count", T * T);
+    jstr(j, x, "type", "SCALAR");
+    x = jobj(j, x, "sparse");
+    jint(j, x, "count", T);
+    smp = jobj(j, x, "indices");
+    jint(j, smp, "bufferView", 5);
+    jint(j, smp, "componentType", GL_UNSIGNED_INT);
+    jint(j, jobj(j, x, "values"), "bufferView", 6);
     return root;
 }
 
@@ -509,16 +521,16 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
         fwrite(bytes, 4, n3, af.fp);
     }
 
-    /* ---- times, then the one-hot weights row by row */
+    /* ---- times, then the sparse weights: indices k * T + k, values 1 */
     for (int64_t k = 0; k < T; k++)
         put_f32(bytes + 4 * k, times[k]);
     fwrite(bytes, 4, (size_t)T, af.fp);
-    memset(bytes, 0, 4 * (size_t)T);
-    for (int64_t k = 0; k < T; k++) {
+    for (int64_t k = 0; k < T; k++)
+        put_u32(bytes + 4 * k, (uint32_t)(k * T + k));
+    fwrite(bytes, 4, (size_t)T, af.fp);
+    for (int64_t k = 0; k < T; k++)
         put_f32(bytes + 4 * k, 1.0f);
-        fwrite(bytes, 4, (size_t)T, af.fp);
-        put_f32(bytes + 4 * k, 0.0f);
-    }
+    fwrite(bytes, 4, (size_t)T, af.fp);
     st = dtx_atomic_commit(&af, err); /* checks every write above */
 
 fail:

@@ -20,14 +20,19 @@
  *     k; LINEAR interpolation blends neighbouring frames (the same as
  *     interpolating the positions), STEP holds each frame.
  *
- * The weights are nframes^2 floats: 1024 frames take 4 MiB, 4096 take
- * 64 MiB; DTX_GLB_MAX_FRAMES bounds them (export fewer frames, e.g. every
- * k-th, for longer sequences).
- *
+ * The weights are a sparse accessor ("Sparse Accessors" in the
+ * specification): no buffer view, so they start as zeros, and nframes
+ * entries (UNSIGNED_INT index k * nframes + k, value 1.0f).  The file
+ * therefore grows linearly with the frames (per frame: one morph target of
+ * 12 * nv bytes, 12 bytes of time and sparse entry, and about 200 bytes of
+ * JSON); DTX_GLB_MAX_FRAMES keeps the largest sparse index, nframes^2 - 1,
+ * below 2^32.  (Readers that expand the accessor, as Blender's importer
+ * does, still hold nframes^2 floats in memory.)
+
  * Binary layout: 12-byte header ("glTF", version 2, total length), a JSON
  * chunk padded with spaces and a BIN chunk padded with zeros, both to 4
  * bytes; one buffer; buffer views (positions, normals, indices, all morph
- * deltas with byteStride 12, times, weights) start at multiples of 4;
+ * deltas with byteStride 12, times, sparse indices, sparse values) start at multiples of 4;
  * everything little-endian.  The whole file must stay below 4 GiB (the
  * GLB length field is 32 bits): DTX_ERANGE otherwise, before anything is
  * written.
@@ -51,7 +56,7 @@
 #include <stdint.h>
 
 /* Most frames (morph targets) one .glb may hold. */
-#define DTX_GLB_MAX_FRAMES 4096
+#define DTX_GLB_MAX_FRAMES 65535
 
 /* Fills X (nv x 3 doubles, row-major) with frame k (0 <= k < nframes) of
  * the animation.  Returns DTX_OK or an error with err filled. */
@@ -70,7 +75,7 @@ typedef struct {
 /* Writes the .glb described above to path.
  *   rest:    the rest mesh (nv >= 1, nf >= 1, indices in range, finite
  *            coordinates that fit float32)
- *   nframes: 1..DTX_GLB_MAX_FRAMES
+ *   nframes: 1..DTX_GLB_MAX_FRAMES (and the file below 4 GiB)
  *   frame:   the frame callback, called with k = 0..nframes-1 in order,
  *            twice; every coordinate and every difference from the rest
  *            must be finite in float32 (DTX_ENONFINITE naming the frame and

@@ -2763,3 +2763,57 @@ void dtx_h5_result_close(dtx_h5_result *res)
     res->ones = NULL;
     res->scratch_n = res->ones_n = 0;
 }
+
+/* ------------------------------------------------------------ frame rate */
+
+dtx_status dtx_h5_write_fps(hid_t loc, const char *obj, double fps, dtx_error *err)
+{
+    char where[DTX_H5_PATH_MAX];
+    if (!(fps > 0.0) || !(fps <= DTX_H5_FPS_MAX))
+        return ferr(err, DTX_EINVAL, loc, obj_path(loc, obj, where, sizeof where),
+                    "frame rate %g: expected a number > 0 and <= %g", fps, DTX_H5_FPS_MAX);
+    return write_attr(loc, obj, "fps", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, &fps, err);
+}
+
+dtx_status dtx_h5_read_fps(hid_t loc, const char *obj, double *fps, int *stored, dtx_error *err)
+{
+    hid_t a, ft, sp;
+    char where[DTX_H5_PATH_MAX];
+    dtx_status st;
+    double v = 0.0;
+    htri_t e = H5Aexists_by_name(loc, obj, "fps", H5P_DEFAULT);
+    *fps = DTX_H5_DEFAULT_FPS;
+    *stored = 0;
+    if (e < 0)
+        return h5err(err, loc, obj_path(loc, obj, where, sizeof where),
+                     "cannot look up attribute fps");
+    if (e == 0)
+        return DTX_OK;
+    if ((st = open_attr(loc, obj, "fps", H5T_FLOAT, &a, &ft, &sp, err)) == DTX_OK) {
+        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0)
+            st = h5err(err, loc, obj_path(loc, obj, where, sizeof where),
+                       "cannot read attribute fps");
+        else if (!(v > 0.0) || !(v <= DTX_H5_FPS_MAX)) /* NaN fails */
+            st = ferr(err, DTX_EFORMAT, loc, obj_path(loc, obj, where, sizeof where),
+                      "attribute fps: %g frames per second (expected > 0 and <= %g)", v,
+                      DTX_H5_FPS_MAX);
+        else {
+            *fps = v;
+            *stored = 1;
+        }
+    }
+    CLOSE_ID(H5Sclose, sp);
+    CLOSE_ID(H5Tclose, ft);
+    CLOSE_ID(H5Aclose, a);
+    return st;
+}
+
+dtx_status dtx_h5_copy_fps(hid_t from, hid_t to, dtx_error *err)
+{
+    double fps;
+    int stored;
+    dtx_status st = dtx_h5_read_fps(from, ".", &fps, &stored, err);
+    if (st == DTX_OK && stored)
+        st = dtx_h5_write_fps(to, ".", fps, err);
+    return st;
+}

@@ -516,4 +516,27 @@ char *dtx_h5_layout_json(void);
  * *report may be NULL). */
 dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err);
 
+/* ------------------------------------------------------------ frame rate */
+
+/* The frame rate of a sequence or a result: attribute "fps" (scalar
+ * float64, frames per second, > 0 and <= DTX_H5_FPS_MAX) on its group.
+ * Optional (files written before it existed have none): a reader then
+ * assumes DTX_H5_DEFAULT_FPS. */
+#define DTX_H5_DEFAULT_FPS 24.0
+#define DTX_H5_FPS_MAX 1e6
+
+/* Writes (replaces) the attribute fps on the object at obj (relative to
+ * loc).  DTX_EINVAL when fps is out of range. */
+dtx_status dtx_h5_write_fps(hid_t loc, const char *obj, double fps, dtx_error *err);
+
+/* Reads attribute fps of obj into *fps and sets *stored = 1; when the
+ * attribute is absent, *fps = DTX_H5_DEFAULT_FPS, *stored = 0 and DTX_OK.
+ * A stored value that is not a float or out of range is DTX_EFORMAT. */
+dtx_status dtx_h5_read_fps(hid_t loc, const char *obj, double *fps, int *stored, dtx_error *err);
+
+/* Copies attribute fps from the object `from` to the object `to` (open
+ * groups) when `from` has one; nothing otherwise.  On a parallel file,
+ * collective: every rank calls. */
+dtx_status dtx_h5_copy_fps(hid_t from, hid_t to, dtx_error *err);
+
 #endif /* DTX_H5LAYOUT_H */

@@ -61,11 +61,11 @@ R=/results/lion/cat-poses
 check "export PC2, rest OBJ, glb and OBJ frames" \
     "$DTX" export out.h5 $R --pc2 lion.pc2 --obj-rest lion.obj --glb lion.glb --obj-dir frames
 
-# PC2: "POINTCACHE2\0", version 1, 5000 points, start 1.0, rate 1.0, 9 samples
+# PC2: "POINTCACHE2\0", version 1, 5000 points, start 0.0, rate 1.0, 9 samples
 check "PC2 signature" test "$(head -c 12 lion.pc2 | od -An -c | tr -d ' \n')" = 'POINTCACHE2\0'
 check "PC2 version 1" test "$(hex32 lion.pc2 12)" = 00000001
 check "PC2 5000 points" test "$((16#$(hex32 lion.pc2 16)))" -eq 5000
-check "PC2 start frame 1.0" test "$(hex32 lion.pc2 20)" = 3f800000
+check "PC2 start frame 0.0" test "$(hex32 lion.pc2 20)" = 00000000
 check "PC2 sample rate 1.0" test "$(hex32 lion.pc2 24)" = 3f800000
 check "PC2 9 samples" test "$((16#$(hex32 lion.pc2 28)))" -eq 9
 check "PC2 size 32 + 12 x 5000 x 9" test "$(stat -c %s lion.pc2)" -eq $((32 + 12 * 5000 * 9))
@@ -164,10 +164,12 @@ reject 2 '--stride must be a whole number >= 1' x.glb "$DTX" export out.h5 $R --
 reject 2 '--stride must be' x.glb "$DTX" export out.h5 $R --glb x.glb --stride 2x
 reject 2 '--fps must be a number > 0' x.glb "$DTX" export out.h5 $R --glb x.glb --fps 0
 reject 2 '--fps must be' x.glb "$DTX" export out.h5 $R --glb x.glb --fps nan
-reject 2 '--max-frames must be a whole number from 1 to 4096' x.glb \
-    "$DTX" export out.h5 $R --glb x.glb --max-frames 5000
-reject 2 '--fps, --step and --max-frames go with --glb' x.pc2 \
+reject 2 '--max-frames must be a whole number from 1 to 65535' x.glb \
+    "$DTX" export out.h5 $R --glb x.glb --max-frames 65536
+reject 2 '--fps goes with --glb or --mdd' x.pc2 \
     "$DTX" export out.h5 $R --pc2 x.pc2 --fps 30
+reject 2 '--step and --max-frames go with --glb' x.mdd \
+    "$DTX" export out.h5 $R --mdd x.mdd --step
 reject 2 '--start-frame goes with --pc2' x.glb "$DTX" export out.h5 $R --glb x.glb --start-frame 2
 reject 2 'unknown option --frobnicate' x.glb "$DTX" export out.h5 $R --glb x.glb --frobnicate
 reject 2 '--glb needs a value' x.glb "$DTX" export out.h5 $R --glb

@@ -1,0 +1,49 @@
+#!/usr/bin/env bash
+# Blender as the client of `dtx export`: Debian's Blender 3.4, headless,
+# runs tests/cli/blender_check.py, which performs the README's "Using
+# results in Blender" steps on a 9-frame cat -> lion result (5,000
+# vertices) exported as rest OBJ, glb (stored at 30 fps), PC2 and MDD, and
+# compares what Blender shows with the HDF5 frames by vertex index, within
+# float32 precision.  Exits 77 (skipped) without blender, except under
+# CI=true, where that is a failure (scripts/setup.sh installs it).
+set -uo pipefail
+. "$DTX_SRC/tests/lib.sh"
+D="$DTX_BUILD/data/sumner-cat-lion"
+cd "$DTX_TESTDATA" || exit 1
+if ! command -v blender > /dev/null; then
+    if [ "${CI:-}" = true ]; then echo "FAILED (CI=true, so this is not skipped): blender is not installed"; exit 1; fi
+    echo "skipped: blender is not installed (Debian: apt-get install blender; scripts/setup.sh does)"
+    exit 77
+fi
+
+# ---- a 9-frame result, made as in test_gltf_validator.sh
+"$DTX" import mesh "$D/source/cat-reference.obj" -o cl.h5 --name cat 2>/dev/null
+"$DTX" import mesh "$D/target/lion-reference.obj" -o cl.h5 --name lion 2>/dev/null
+mkdir -p poses
+for k in 1 2 3 4 5 6 7 8 9; do ln -sf "$D/source/cat-0$k.obj" "poses/cat-$k.obj"; done
+"$DTX" import sequence poses -o cl.h5 --name cat-poses --mesh /meshes/cat 2>/dev/null
+"$DTX" import markers "$D/markers.csv" --index-base 0 -o cl.h5 --name cat-lion \
+    --source /meshes/cat --target /meshes/lion 2>/dev/null
+cat > job.json <<'JOB'
+{"dtx_job": 1, "method": "sp04",
+ "source": {"file": "cl.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
+ "targets": [{"name": "lion", "file": "cl.h5", "mesh": "/meshes/lion",
+              "markers": {"file": "cl.h5", "path": "/markers/cat-lion"}}],
+ "output": {"file": "out.h5"}}
+JOB
+"$DTX" run --quiet job.json || { echo "FAILED: the job did not run"; exit 1; }
+R=/results/lion/cat-poses
+rm -rf frames
+check "export rest OBJ, glb, PC2, MDD and the frames as OBJ" \
+    "$DTX" export out.h5 $R --obj-rest lion-rest.obj --glb lion.glb --pc2 lion.pc2 \
+    --mdd lion.mdd --obj-dir frames --fps 30
+
+# ---- Blender (its own messages go to blender.log; the checks are printed)
+blender -b --factory-startup --python-exit-code 1 --python "$DTX_SRC/tests/cli/blender_check.py" \
+    -- 30 frames lion-rest.obj lion.glb lion.pc2 lion.mdd > blender.log 2>&1
+rc=$?
+grep -E '^(ok|FAILED|blender_check):' blender.log
+check "Blender 3.4 plays the OBJ, glb, PC2 and MDD as the HDF5 result (exit $rc)" \
+    test "$rc" -eq 0 -a "$(grep -c '^ok:' blender.log)" -eq 13
+[ "$rc" -eq 0 ] || tail -n 30 blender.log
+finish
