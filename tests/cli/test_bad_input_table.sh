@@ -228,6 +228,76 @@ else
     bad seq-frame-nonfinite "seq.h5 damaged by the failed imports"
 fi
 
+# A failed import into an existing file leaves it as it was: no temporary
+# group anywhere, and not one byte more (HDF5 keeps the space of unlinked
+# data, so frames written before the bad one would stay as dead bytes).
+# 20 good frames first: more than one 16-frame chunk.
+for i in $(seq -w 1 20); do cp src-2.obj ok-$i.obj; done
+"$PY" - <<'PY'
+lines = open("src-2.obj").read().splitlines()
+v = [l for l in lines if l.startswith("v ")]
+f = [l for l in lines if l.startswith("f ") and "86" not in l.split()[1:]]
+open("frame-nv.obj", "w").write("\n".join(v[:-1] + f) + "\n")
+open("frame-empty.obj", "w").write("")
+PY
+seq_fail() { # seq_fail ROW FRAME PATTERN
+    local before msg
+    cp in.h5 seqf.h5; before=$(stat -c %s seqf.h5)
+    reject "$1" "" "$3" "$DTX" import sequence ok-*.obj "$2" -o seqf.h5 --name bad --mesh /meshes/src
+    if ! msg=$("$PY" - seqf.h5 "$before" <<'PY' 2>&1
+import os, sys, h5py
+left = []
+with h5py.File(sys.argv[1], "r") as f:
+    f.visit(lambda n: left.append(n) if ".dtx-" in n or n.endswith("/bad") else None)
+assert not left, "left behind: %s" % left
+size, before = os.path.getsize(sys.argv[1]), int(sys.argv[2])
+assert size == before, "the file grew from %d to %d bytes" % (before, size)
+PY
+    ); then bad "$1" "seqf.h5: $msg"; return; fi
+    if ! msg=$("$DTX" validate seqf.h5 2>&1); then bad "$1" "seqf.h5 does not validate: $msg"; return; fi
+    ok "$1" "seqf.h5: no temporary group, same size ($before bytes), validates"
+}
+seq_fail seq-into-existing frame-nv.obj 'frame-nv\.obj: frame 20 has 85 vertices but the rest mesh /meshes/src has 86'
+seq_fail seq-into-existing frame-nan.obj 'frame-nan\.obj:7: vertex 7 has a non-finite coordinate'
+seq_fail seq-into-existing frame-empty.obj 'frame-empty\.obj: empty file'
+seq_fail seq-into-existing frame-faces.obj 'frame-faces\.obj: frame 20 has different faces'
+seq_fail seq-into-existing missing.obj 'missing\.obj: no such file or directory'
+reject seq-missing-file out.h5 'no-such-dir: no such file or directory' \
+    "$DTX" import sequence no-such-dir -o out.h5 --name s --mesh /meshes/src
+
+# ----------------------------------------------------------------- names
+# One rule for every object name (dtx_h5_check_name): refused before any
+# file is read or written.
+name_rej() { # name_rej NAME PATTERN
+    reject import-name out.h5 "--name: $2" "$DTX" import mesh src.obj -o out.h5 --name "$1"
+    reject import-name "" "--name: $2" "$DTX" import sequence src-1.obj -o seq.h5 --name "$1" \
+        --mesh /meshes/src
+}
+name_rej .. '"\.\." cannot name an HDF5 object: HDF5 reads'
+name_rej . '"\." cannot name an HDF5 object: HDF5 reads'
+name_rej .dtx-tmp-x '"\.dtx-tmp-x" cannot name an HDF5 object: names starting with "\.dtx-" are reserved'
+name_rej a/b "\"a/b\" cannot name an HDF5 object: it contains '/'"
+name_rej "$(printf 'a\tb')" '"a\?b" cannot name an HDF5 object: it contains the control character 0x09'
+name_rej "$(printf 'n%.0s' $(seq 256))" '"n+\.\.\." cannot name an HDF5 object: it is 256 bytes long, more than 255'
+name_rej "" '"" cannot name an HDF5 object: it is empty'
+reject import-name mk2.h5 '/markers/\.\.: "\.\." cannot name an HDF5 object' \
+    "$DTX" import markers markers.csv --index-base 0 -o mk2.h5 --name ..
+if ! msg=$("$PY" - seq.h5 <<'PY' 2>&1
+import sys, h5py
+left = []
+with h5py.File(sys.argv[1], "r") as f:
+    f.visit(lambda n: left.append(n) if ".dtx-" in n else None)
+assert not left, "left behind: %s" % left
+PY
+); then bad import-name "seq.h5: $msg"; else ok import-name "seq.h5: no temporary group after the refused names"; fi
+job j_tmpname src src tgt
+sed -i 's#"name": "tgt"#"name": ".dtx-tmp-x"#' j_tmpname.json
+reject job-target-name j_tmpname.h5 'j_tmpname\.json: at /targets/0/name: expected a string matching' "$DTX" run j_tmpname.json
+job j_seqname src src tgt
+sed -i 's#"/sequences/src"#"/sequences/.."#' j_seqname.json
+reject job-target-name j_seqname.h5 'j_seqname\.json: at /source/sequences/0: the sequence path "/sequences/\.\." gives no usable result name' \
+    "$DTX" run j_seqname.json
+
 # ----------------------------------------------- HDF5 from other programs
 # Copies of in.h5 with one defect each, written with h5py; each is the
 # source file of a job (and must fail `dtx validate` too, except seq_nan:
