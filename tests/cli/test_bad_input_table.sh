@@ -377,6 +377,37 @@ sed -i 's#"source": {"file": "in.h5"#"source": {"file": "h5_seqnan.h5"#' j_h5_se
 reject h5-seq-nonfinite "" 'h5_seqnan\.h5: /sequences/src/positions: frame 2 \(0-based\), vertex 5 has a non-finite coordinate' \
     "$DTX" run --quiet j_h5_seqnan.json
 if [ -e j_h5_seqnan.h5 ]; then bad h5-seq-nonfinite "j_h5_seqnan.h5 was written"; fi
+# dtx export of a sequence with that NaN: every frame is checked before the
+# first output, so no output at all is written (not the frames before the
+# NaN, not the rest OBJ, PC2 or glb), and an existing --obj-dir keeps only
+# what it had.
+export_nothing() { # export_nothing DIR OUTPUT-ARGS...
+    local dir=$1 left; shift
+    reject export-nonfinite "" 'h5_seqnan\.h5: /sequences/src: frame 2 \(0-based\), vertex 5 has a non-finite coordinate \(nan\); nothing was exported' \
+        "$DTX" export h5_seqnan.h5 /sequences/src "$@"
+    left=$(find . \( -name 'ex.*' -o -name '.ex*' -o -name '*.tmp-*' -o -path "./$dir/*" \) \
+        ! -name old.txt | head -5)
+    if [ -n "$left" ]; then bad export-nonfinite "left behind: $left"; fi
+}
+export_nothing exdir --obj-dir exdir
+[ -e exdir ] && bad export-nonfinite "exdir was created"
+export_nothing exdir --obj-rest ex.obj --pc2 ex.pc2 --glb ex.glb --obj-dir exdir
+mkdir -p exkeep && echo keep > exkeep/old.txt
+export_nothing exkeep --obj-dir exkeep/ --pc2 ex.pc2
+if [ "$(ls -A exkeep)" = old.txt ]; then ok export-nonfinite "exkeep/ holds only old.txt"
+else bad export-nonfinite "exkeep/ holds: $(ls -A exkeep)"; fi
+# The same export from the clean file writes every frame, into a new and
+# into an existing directory, and leaves no temporary directory.
+if "$DTX" export in.h5 /sequences/src --obj-dir exkeep 2>/dev/null &&
+   "$DTX" export in.h5 /sequences/src --obj-dir exnew/ 2>/dev/null &&
+   [ "$(ls -A exkeep | tr '\n' ' ')" = "old.txt src-00001.obj src-00002.obj src-00003.obj " ] &&
+   [ "$(ls -A exnew | tr '\n' ' ')" = "src-00001.obj src-00002.obj src-00003.obj " ] &&
+   [ -z "$(find . -name '*.tmp-*' | head -1)" ]; then
+    ok export-nonfinite "clean exports: 3 frames into exkeep/ (old.txt kept) and exnew/, no temporary left"
+else
+    bad export-nonfinite "clean exports: exkeep: $(ls -A exkeep); exnew: $(ls -A exnew 2>&1)"
+fi
+
 # Markers stored with a float dtype.
 "$DTX" import markers markers.csv --index-base 0 -o mk.h5 --name m 2>/dev/null
 "$PY" -c '
