@@ -284,13 +284,14 @@ static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
 
 /* Reads frame i from path and checks it against the rest mesh (vertex count,
  * identical faces; the readers reject non-finite coordinates); copies its
- * positions (nv x 3 doubles) to dst when dst is not NULL. */
+ * positions (nv x 3 doubles) to dst when dst is not NULL.  Warnings are
+ * printed unless quiet (a frame read the second time). */
 static dtx_status read_frame(const char *path, int i, const dtx_mesh *rest, const char *mesh,
-                             double *dst, dtx_error *err)
+                             double *dst, int quiet, dtx_error *err)
 {
     dtx_warner w = {print_warning, NULL};
     dtx_mesh fr;
-    dtx_status st = dtx_mesh_read(path, &fr, &w, err);
+    dtx_status st = dtx_mesh_read(path, &fr, quiet ? NULL : &w, err);
     if (st != DTX_OK)
         return st;
     if (fr.nv != rest->nv)
@@ -363,14 +364,21 @@ static int cmd_import_sequence(int argc, char **argv)
      * can only be chosen when a file is created, not for the existing files
      * this appends to.  Frames are kept for pass 2 up to
      * IMPORT_FRAME_CACHE_BYTES; the rest are read again. */
-    ncached = (int)(IMPORT_FRAME_CACHE_BYTES / frame_bytes);
+    ncached = frame_bytes ? (int)(IMPORT_FRAME_CACHE_BYTES / frame_bytes) : 0;
     if (ncached > nframes)
         ncached = nframes;
+    {
+        /* For the tests: DTX_IMPORT_CACHE_FRAMES=N keeps at most N frames,
+         * so that small sequences go through the second reading too. */
+        const char *cf = getenv("DTX_IMPORT_CACHE_FRAMES");
+        if (cf && atoi(cf) >= 0 && atoi(cf) < ncached)
+            ncached = atoi(cf);
+    }
     if (ncached > 0 && !(cache = dtx_alloc((size_t)ncached, frame_bytes, 0)))
         ncached = 0; /* no memory to spare: read every frame twice */
     for (int i = 0; st == DTX_OK && i < nframes; i++)
-        st = read_frame(files[i], i, &rest, mesh, i < ncached ? cache + (size_t)i * 3 * rest.nv
-                                                             : NULL, &err);
+        st = read_frame(files[i], i, &rest, mesh,
+                        i < ncached ? cache + (size_t)i * 3 * rest.nv : NULL, 0, &err);
     if (st != DTX_OK)
         goto done;
 
@@ -392,7 +400,7 @@ static int cmd_import_sequence(int argc, char **argv)
                 if (i0 + j < ncached)
                     memcpy(dst, cache + (size_t)(i0 + j) * 3 * rest.nv, frame_bytes);
                 else
-                    st = read_frame(files[i0 + j], i0 + j, &rest, mesh, dst, &err);
+                    st = read_frame(files[i0 + j], i0 + j, &rest, mesh, dst, 1, &err);
             }
         }
         if (st == DTX_OK)

@@ -262,6 +262,24 @@ seq_fail seq-into-existing frame-nan.obj 'frame-nan\.obj:7: vertex 7 has a non-f
 seq_fail seq-into-existing frame-empty.obj 'frame-empty\.obj: empty file'
 seq_fail seq-into-existing frame-faces.obj 'frame-faces\.obj: frame 20 has different faces'
 seq_fail seq-into-existing missing.obj 'missing\.obj: no such file or directory'
+# Frames beyond the in-memory budget are read a second time for writing
+# (DTX_IMPORT_CACHE_FRAMES shrinks the budget to 3 frames): the sequence is
+# the same as one written from memory.
+cp in.h5 seqc.h5
+if "$DTX" import sequence ok-*.obj src-3.obj -o seqc.h5 --name all --mesh /meshes/src 2>/dev/null &&
+   DTX_IMPORT_CACHE_FRAMES=3 "$DTX" import sequence ok-*.obj src-3.obj -o seqc.h5 --name some \
+       --mesh /meshes/src 2>/dev/null &&
+   msg=$("$PY" -c '
+import h5py, numpy as np
+with h5py.File("seqc.h5", "r") as f:
+    a, b = f["/sequences/all/positions"][...], f["/sequences/some/positions"][...]
+    assert a.shape == (21, 86, 3) and np.array_equal(a, b), (a.shape, b.shape)
+    assert not np.array_equal(a[0], a[20]), "src-3.obj is the last frame"' 2>&1); then
+    ok seq-into-existing "21 frames read once or (18 of them) twice give the same sequence"
+else
+    bad seq-into-existing "the import reading frames twice differs or failed: ${msg:-}"
+fi
+DTX_IMPORT_CACHE_FRAMES=3 seq_fail seq-into-existing frame-nan.obj 'frame-nan\.obj:7: vertex 7 has a non-finite coordinate'
 reject seq-missing-file out.h5 'no-such-dir: no such file or directory' \
     "$DTX" import sequence no-such-dir -o out.h5 --name s --mesh /meshes/src
 
