@@ -493,6 +493,7 @@ int dtx_cmd_export(int argc, char **argv)
     frame_source s;
     dtx_mesh mesh;
     double *X = NULL;
+    int new_rest, new_pc2, new_glb;
     if (msg)
         return usage(msg);
     memset(&s, 0, sizeof s);
@@ -529,7 +530,11 @@ int dtx_cmd_export(int argc, char **argv)
     if (st == DTX_OK)
         st = check_frames(&s, &a, X, &err);
 
-    /* ---- outputs */
+    /* ---- outputs (each file is atomic; which ones are new is noted so
+     * that a later failure, such as a full disk, removes them again) */
+    new_rest = a.obj_rest && access(a.obj_rest, F_OK) != 0;
+    new_pc2 = a.pc2 && access(a.pc2, F_OK) != 0;
+    new_glb = a.glb && access(a.glb, F_OK) != 0;
     if (st == DTX_OK && a.obj_rest) {
         st = dtx_obj_write(a.obj_rest, mesh.V, mesh.nv, mesh.F, mesh.nf,
                            "rest mesh exported by dtx (apply the PC2 cache to it)", &err);
@@ -543,6 +548,13 @@ int dtx_cmd_export(int argc, char **argv)
         st = write_glb(&s, &a, &mesh, a.input, &err);
     if (st == DTX_OK && a.obj_dir)
         st = write_obj_dir(&s, &a, &mesh, X, &err);
+    if (st != DTX_OK) {
+        const char *made[3] = {new_rest ? a.obj_rest : NULL, new_pc2 ? a.pc2 : NULL,
+                               new_glb ? a.glb : NULL};
+        for (int i = 0; i < 3; i++)
+            if (made[i] && remove(made[i]) == 0)
+                fprintf(stderr, "dtx: %s removed again (the export failed)\n", made[i]);
+    }
 
     free(X);
     dtx_mesh_free(&mesh);

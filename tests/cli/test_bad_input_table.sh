@@ -414,6 +414,14 @@ mkdir -p exkeep && echo keep > exkeep/old.txt
 export_nothing exkeep --obj-dir exkeep/ --pc2 ex.pc2
 if [ "$(ls -A exkeep)" = old.txt ]; then ok export-nonfinite "exkeep/ holds only old.txt"
 else bad export-nonfinite "exkeep/ holds: $(ls -A exkeep)"; fi
+# An output that fails after others were written (here --obj-dir under a
+# missing directory, last in order) removes the ones this export created.
+reject export-later-failure "" 'no-parent/frames: cannot create directory' \
+    "$DTX" export in.h5 /sequences/src --obj-rest ex2.obj --pc2 ex2.pc2 --glb ex2.glb \
+    --obj-dir no-parent/frames
+left=$(find . \( -name 'ex2.*' -o -name '.ex2*' -o -name '*.tmp-*' \) | head -5)
+if [ -n "$left" ]; then bad export-later-failure "left behind: $left"
+else ok export-later-failure "no rest OBJ, PC2 or glb left"; fi
 # The same export from the clean file writes every frame, into a new and
 # into an existing directory, and leaves no temporary directory.
 if "$DTX" export in.h5 /sequences/src --obj-dir exkeep 2>/dev/null &&
