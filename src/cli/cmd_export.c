@@ -1,8 +1,10 @@
 /*
  * cmd_export.c: `dtx export`.  Opens a result (/results/T/S) or a sequence
  * (/sequences/S) of a dtx file with its mesh (the result's target, the
- * sequence's rest mesh), checks every argument and that a result has all
- * its frames, then writes what was asked, each file atomically:
+ * sequence's rest mesh), checks every argument, that a result has all its
+ * frames and that every exported frame is finite (so an error leaves no
+ * output at all), then writes what was asked, each file atomically and the
+ * OBJ frames through a temporary directory:
  *
  *   --obj-rest FILE  the mesh as OBJ (what a PC2 cache is applied to)
  *   --pc2 FILE       a PC2 point cache, one sample per exported frame
@@ -30,12 +32,14 @@
 #include "pc2.h"
 
 #include <errno.h>
+#include <float.h>
 #include <math.h>
 #include <stddef.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <unistd.h>
 
 #define DEFAULT_MAX_FRAMES DTX_GLB_MAX_FRAMES
 
@@ -400,27 +404,122 @@ static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mes
     return st;
 }
 
+/* Every exported frame is read once before any output is written: a frame
+ * that cannot be exported (a non-finite coordinate, or with --pc2 or --glb
+ * one beyond float32) stops the export before the first file, so no output
+ * is left half-done and none is written while another fails. */
+static dtx_status check_frames(frame_source *s, const export_args *a, double *X, dtx_error *err)
+{
+    const int f32 = a->pc2 || a->glb;
+    const int64_t T = exported_frames(s), n = (int64_t)s->nv * 3;
+    for (int64_t k = 0; k < T; k++) {
+        dtx_status st = read_frame(s, k, X, err);
+        if (st != DTX_OK)
+            return st;
+        for (int64_t i = 0; i < n; i++)
+            if (!(isfinite(X[i]) && (!f32 || fabs(X[i]) <= FLT_MAX)))
+                return dtx_seterr(err, DTX_EFORMAT,
+                                  "%s: %s: frame %lld (0-based), vertex %lld has %s "
+                                  "coordinate (%g); nothing was exported",
+                                  a->input, a->item, (long long)(k * s->stride),
+                                  (long long)(i / 3),
+                                  isfinite(X[i]) ? "a float32-overflowing" : "a non-finite",
+                                  X[i]);
+    }
+    return DTX_OK;
+}
+
+/* Removes the first n frame files of dir (written by write_obj_dir), then
+ * dir itself: only what this export created. */
+static void remove_frames(const char *dir, const char *base, const frame_source *s, int64_t n)
+{
+    char path[8192];
+    for (int64_t k = 0; k < n; k++) {
+        snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", dir, base,
+                 (long long)(k * s->stride + 1));
+        remove(path);
+    }
+    rmdir(dir);
+}
+
+/* The frames go to a temporary directory and are moved into place when all
+ * are written, so an error (a full disk, say) leaves none of them: a new
+ * DIR is the temporary directory renamed; into an existing DIR (whose other
+ * files stay) each frame is renamed from a temporary directory inside it. */
 static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx_mesh *mesh,
                                 double *X, dtx_error *err)
 {
-    char path[8192];
-    const char *base = strrchr(a->item, '/');
+    char dir[4096], tmp[4200], path[8192], final[8192];
+    const char *base = strrchr(a->item, '/'), *slash;
     dtx_status st = DTX_OK;
-    int64_t T = exported_frames(s);
+    int64_t T = exported_frames(s), k, moved = 0;
+    size_t len;
+    struct stat sb;
+    int exists;
     base = base ? base + 1 : a->item;
-    if (mkdir(a->obj_dir, 0777) != 0 && errno != EEXIST)
-        return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s", a->obj_dir,
-                          strerror(errno));
-    for (int64_t k = 0; st == DTX_OK && k < T; k++) {
+    len = strlen(a->obj_dir);
+    while (len > 1 && a->obj_dir[len - 1] == '/')
+        len--;
+    if (len >= sizeof dir)
+        return dtx_seterr(err, DTX_EINVAL, "%.200s...: path too long", a->obj_dir);
+    memcpy(dir, a->obj_dir, len);
+    dir[len] = '\0';
+    exists = stat(dir, &sb) == 0;
+    if (exists && !S_ISDIR(sb.st_mode))
+        return dtx_seterr(err, DTX_EINVAL, "%s: is not a directory", a->obj_dir);
+    slash = strrchr(dir, '/');
+    if (exists)
+        snprintf(tmp, sizeof tmp, "%s/.dtx-export.tmp-%ld", dir, (long)getpid());
+    else
+        snprintf(tmp, sizeof tmp, "%.*s.%s.tmp-%ld", slash ? (int)(slash - dir + 1) : 0, dir,
+                 slash ? slash + 1 : dir, (long)getpid());
+    if (mkdir(tmp, 0777) != 0)
+        return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s",
+                          exists ? a->obj_dir : dir, strerror(errno));
+    for (k = 0; st == DTX_OK && k < T; k++) {
         st = read_frame(s, k, X, err);
-        snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", a->obj_dir, base,
+        snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", tmp, base,
                  (long long)(k * s->stride + 1));
         if (st == DTX_OK)
             st = dtx_obj_write(path, X, mesh->nv, mesh->F, mesh->nf, "exported by dtx", err);
     }
-    if (st == DTX_OK)
-        fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)T, a->obj_dir);
-    return st;
+    if (st != DTX_OK) {
+        remove_frames(tmp, base, s, k);
+        return st;
+    }
+    if (!exists) {
+        if (rename(tmp, dir) != 0) {
+            st = dtx_seterr(err, DTX_EIO, "%s: cannot rename %s to it: %s", dir, tmp,
+                            strerror(errno));
+            remove_frames(tmp, base, s, T);
+            return st;
+        }
+    } else {
+        for (moved = 0; moved < T; moved++) {
+            snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", tmp, base,
+                     (long long)(moved * s->stride + 1));
+            snprintf(final, sizeof final, "%.4000s/%.1000s-%05lld.obj", dir, base,
+                     (long long)(moved * s->stride + 1));
+            if (rename(path, final) != 0) {
+                st = dtx_seterr(err, DTX_EIO, "%s: cannot move %s here: %s", final, path,
+                                strerror(errno));
+                break;
+            }
+        }
+        if (st != DTX_OK) {
+            /* Frames already moved replaced old ones and stay; the rest go. */
+            for (int64_t j = moved; j < T; j++) {
+                snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", tmp, base,
+                         (long long)(j * s->stride + 1));
+                remove(path);
+            }
+            rmdir(tmp);
+            return st;
+        }
+        rmdir(tmp);
+    }
+    fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)T, a->obj_dir);
+    return DTX_OK;
 }
 
 /* ------------------------------------------------------------------ */
@@ -438,6 +537,7 @@ int dtx_cmd_export(int argc, char **argv)
     frame_source s;
     dtx_mesh mesh;
     double *X = NULL;
+    int new_rest, new_pc2, new_glb;
     if (msg)
         return usage(msg);
     memset(&s, 0, sizeof s);
@@ -477,8 +577,14 @@ int dtx_cmd_export(int argc, char **argv)
         if (!X)
             st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
     }
+    if (st == DTX_OK)
+        st = check_frames(&s, &a, X, &err);
 
-    /* ---- outputs */
+    /* ---- outputs (each file is atomic; which ones are new is noted so
+     * that a later failure, such as a full disk, removes them again) */
+    new_rest = a.obj_rest && access(a.obj_rest, F_OK) != 0;
+    new_pc2 = a.pc2 && access(a.pc2, F_OK) != 0;
+    new_glb = a.glb && access(a.glb, F_OK) != 0;
     if (st == DTX_OK && a.obj_rest) {
         st = dtx_obj_write(a.obj_rest, mesh.V, mesh.nv, mesh.F, mesh.nf,
                            "rest mesh exported by dtx (apply the PC2 cache to it)", &err);
@@ -494,6 +600,13 @@ int dtx_cmd_export(int argc, char **argv)
         st = write_glb(&s, &a, &mesh, a.input, &err);
     if (st == DTX_OK && a.obj_dir)
         st = write_obj_dir(&s, &a, &mesh, X, &err);
+    if (st != DTX_OK) {
+        const char *made[3] = {new_rest ? a.obj_rest : NULL, new_pc2 ? a.pc2 : NULL,
+                               new_glb ? a.glb : NULL};
+        for (int i = 0; i < 3; i++)
+            if (made[i] && remove(made[i]) == 0)
+                fprintf(stderr, "dtx: %s removed again (the export failed)\n", made[i]);
+    }
 
     free(X);
     dtx_mesh_free(&mesh);

@@ -173,6 +173,16 @@ static int finish_import(const char *path, hid_t *file, int created, dtx_status 
     return 0;
 }
 
+/* --name NAME of an import: checked before any file is read or opened, so
+ * a bad name costs nothing and leaves nothing (the writers check it again). */
+static dtx_status check_import_name(const char *name, dtx_error *err)
+{
+    dtx_status st = dtx_h5_check_name(name, err);
+    if (st != DTX_OK)
+        dtx_error_prefix(err, "--name");
+    return st;
+}
+
 static int cmd_import_mesh(int argc, char **argv)
 {
     char *pos[2];
@@ -187,6 +197,8 @@ static int cmd_import_mesh(int argc, char **argv)
     dtx_status st;
     if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
         return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
+    if (check_import_name(name, &err) != DTX_OK)
+        return fail(&err);
     st = dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
         return fail(&err);
@@ -305,10 +317,52 @@ static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
         dtx_seterr(err, DTX_ENOMEM, "out of memory");
         return NULL;
     }
-    for (int i = 0; i < npos; i++)
+    for (int i = 0; i < npos; i++) {
+        /* A path that is not there is said so (rather than "unknown mesh
+         * file type" from a reader dispatching on the extension). */
+        if (stat(pos[i], &sb) != 0) {
+            dtx_seterr(err, DTX_EIO, "%s: %s", pos[i],
+                       errno == ENOENT ? "no such file or directory" : strerror(errno));
+            for (int j = 0; j < i; j++)
+                free(list[j]);
+            free(list);
+            return NULL;
+        }
         list[i] = strdup(pos[i]);
+    }
     *n = npos;
     return list;
+}
+
+/* Frames read and checked by the first pass are kept in memory up to this
+ * many bytes, so that most imports read each file once. */
+#define IMPORT_FRAME_CACHE_BYTES ((size_t)256 << 20)
+
+/* Reads frame i from path and checks it against the rest mesh (vertex count,
+ * identical faces; the readers reject non-finite coordinates); copies its
+ * positions (nv x 3 doubles) to dst when dst is not NULL.  Warnings are
+ * printed unless quiet (a frame read the second time). */
+static dtx_status read_frame(const char *path, int i, const dtx_mesh *rest, const char *mesh,
+                             double *dst, int quiet, dtx_error *err)
+{
+    dtx_warner w = {print_warning, NULL};
+    dtx_mesh fr;
+    dtx_status st = dtx_mesh_read(path, &fr, quiet ? NULL : &w, err);
+    if (st != DTX_OK)
+        return st;
+    if (fr.nv != rest->nv)
+        st = dtx_seterr(err, DTX_EFORMAT, "%s: frame %d has %d vertices but the rest mesh %s has %d",
+                        path, i, (int)fr.nv, mesh, (int)rest->nv);
+    else if (fr.nf != rest->nf ||
+             memcmp(fr.F, rest->F, (size_t)rest->nf * 3 * sizeof *rest->F) != 0)
+        st = dtx_seterr(err, DTX_EFORMAT,
+                        "%s: frame %d has different faces from the rest mesh %s (%d faces "
+                        "vs %d): every frame must share the rest mesh's connectivity",
+                        path, i, mesh, (int)fr.nf, (int)rest->nf);
+    else if (dst)
+        memcpy(dst, fr.V, (size_t)rest->nv * 3 * sizeof *dst);
+    dtx_mesh_free(&fr);
+    return st;
 }
 
 static int cmd_import_sequence(int argc, char **argv)
@@ -320,15 +374,15 @@ static int cmd_import_sequence(int argc, char **argv)
                *compress = opt(argc, argv, "--compress"), *fps_s = opt(argc, argv, "--fps");
     char **files = NULL, group[DTX_H5_PATH_MAX];
     double fps = 0.0; /* 0: not given, none stored (readers assume 24) */
-    dtx_error err;
+    dtx_error err, e2;
     dtx_status st;
-    dtx_mesh rest, fr;
+    dtx_mesh rest;
     dtx_h5_seq seq;
-    dtx_warner w = {print_warning, NULL};
     hid_t f = H5I_INVALID_HID;
-    double *buf = NULL;
+    double *buf = NULL, *cache = NULL;
     const int chunk = DTX_H5_DEFAULT_CHUNK_FRAMES;
-    int f64 = 0, nbuf = 0, gzip = 0;
+    int f64 = 0, gzip = 0, ncached = 0, seq_made = 0;
+    size_t frame_bytes;
     if (npos < 1 || npos > 100000 || !out || !name || !mesh)
         return usage("import sequence needs frame files or a directory, -o OUT.h5, --name NAME "
                      "and --mesh /meshes/MESH");
@@ -348,6 +402,8 @@ static int cmd_import_sequence(int argc, char **argv)
         if (*end || end == fps_s || !(fps > 0.0) || !(fps <= DTX_H5_FPS_MAX))
             return usage("--fps must be a number > 0 (frames per second, at most 1e6)");
     }
+    if (check_import_name(name, &err) != DTX_OK)
+        return fail(&err);
     memset(&rest, 0, sizeof rest);
     memset(&seq, 0, sizeof seq);
     files = frame_list(pos, npos, &nframes, &err);
@@ -357,44 +413,69 @@ static int cmd_import_sequence(int argc, char **argv)
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
         st = dtx_h5_read_mesh(f, mesh, &rest, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_seq_create(f, group, mesh, nframes, rest.nv, f64, chunk, gzip, &seq, &err);
-    if (st == DTX_OK) {
-        buf = dtx_alloc((size_t)chunk * rest.nv, 3 * sizeof *buf, 0);
-        if (!buf)
-            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+    if (st != DTX_OK)
+        goto done;
+    frame_bytes = (size_t)rest.nv * 3 * sizeof(double);
+
+    /* ---- pass 1: every frame is read and checked before the file changes.
+     * A sequence that fails half-way must leave an existing file as it was,
+     * and HDF5 does not give freed space back: chunks written before a bad
+     * frame and then unlinked would stay in the file as dead bytes (only an
+     * h5repack rewrite recovers them).  Checking first avoids allocating at
+     * all; a temporary file copied in on success would cost a second write
+     * of every frame, and a file-space strategy (H5Pset_file_space_strategy)
+     * can only be chosen when a file is created, not for the existing files
+     * this appends to.  Frames are kept for pass 2 up to
+     * IMPORT_FRAME_CACHE_BYTES; the rest are read again. */
+    ncached = frame_bytes ? (int)(IMPORT_FRAME_CACHE_BYTES / frame_bytes) : 0;
+    if (ncached > nframes)
+        ncached = nframes;
+    {
+        /* For the tests: DTX_IMPORT_CACHE_FRAMES=N keeps at most N frames,
+         * so that small sequences go through the second reading too. */
+        const char *cf = getenv("DTX_IMPORT_CACHE_FRAMES");
+        if (cf && atoi(cf) >= 0 && atoi(cf) < ncached)
+            ncached = atoi(cf);
     }
-    for (int i = 0; st == DTX_OK && i < nframes; i++) {
-        st = dtx_mesh_read(files[i], &fr, &w, &err);
-        if (st != DTX_OK)
-            break;
-        if (fr.nv != rest.nv)
-            st = dtx_seterr(&err, DTX_EFORMAT,
-                            "%s: frame %d has %d vertices but the rest mesh %s has %d", files[i],
-                            i, (int)fr.nv, mesh, (int)rest.nv);
-        else if (fr.nf != rest.nf ||
-                 memcmp(fr.F, rest.F, (size_t)rest.nf * 3 * sizeof *rest.F) != 0)
-            st = dtx_seterr(&err, DTX_EFORMAT,
-                            "%s: frame %d has different faces from the rest mesh %s (%d faces "
-                            "vs %d): every frame must share the rest mesh's connectivity",
-                            files[i], i, mesh, (int)fr.nf, (int)rest.nf);
-        else
-            memcpy(buf + (size_t)nbuf * 3 * rest.nv, fr.V, (size_t)rest.nv * 3 * sizeof *buf);
-        dtx_mesh_free(&fr);
-        if (st == DTX_OK && ++nbuf == chunk) {
-            st = dtx_h5_seq_write(&seq, i + 1 - nbuf, nbuf, buf, 0, &err);
-            nbuf = 0;
+    if (ncached > 0 && !(cache = dtx_alloc((size_t)ncached, frame_bytes, 0)))
+        ncached = 0; /* no memory to spare: read every frame twice */
+    for (int i = 0; st == DTX_OK && i < nframes; i++)
+        st = read_frame(files[i], i, &rest, mesh,
+                        i < ncached ? cache + (size_t)i * 3 * rest.nv : NULL, 0, &err);
+    if (st != DTX_OK)
+        goto done;
+
+    /* ---- pass 2: write, in chunk-sized blocks. */
+    st = dtx_h5_seq_create(f, group, mesh, nframes, rest.nv, f64, chunk, gzip, &seq, &err);
+    seq_made = st == DTX_OK;
+    if (st == DTX_OK && ncached < nframes &&
+        !(buf = dtx_alloc((size_t)chunk, frame_bytes, 0)))
+        st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+    for (int i0 = 0; st == DTX_OK && i0 < nframes; i0 += chunk) {
+        int n = nframes - i0 < chunk ? nframes - i0 : chunk;
+        const double *src = buf;
+        if (i0 + n <= ncached) {
+            src = cache + (size_t)i0 * 3 * rest.nv;
+        } else {
+            /* A file read again is checked again: it may have changed. */
+            for (int j = 0; st == DTX_OK && j < n; j++) {
+                double *dst = buf + (size_t)j * 3 * rest.nv;
+                if (i0 + j < ncached)
+                    memcpy(dst, cache + (size_t)(i0 + j) * 3 * rest.nv, frame_bytes);
+                else
+                    st = read_frame(files[i0 + j], i0 + j, &rest, mesh, dst, 1, &err);
+            }
         }
+        if (st == DTX_OK)
+            st = dtx_h5_seq_write(&seq, i0, n, src, 0, &err);
     }
-    if (st == DTX_OK && nbuf > 0)
-        st = dtx_h5_seq_write(&seq, nframes - nbuf, nbuf, buf, 0, &err);
     if (st == DTX_OK) {
         const char **names = calloc((size_t)nframes, sizeof *names);
         if (!names)
             st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
         for (int i = 0; names && i < nframes; i++) {
-            const char *s = strrchr(files[i], '/');
-            names[i] = s ? s + 1 : files[i];
+            const char *sl = strrchr(files[i], '/');
+            names[i] = sl ? sl + 1 : files[i];
         }
         if (st == DTX_OK)
             st = dtx_h5_write_frame_names(&seq, names, nframes, &err);
@@ -405,13 +486,19 @@ static int cmd_import_sequence(int argc, char **argv)
     if (st == DTX_OK)
         st = dtx_h5_seq_commit(&seq, &err);
     dtx_h5_seq_close(&seq);
+    /* A failure after pass 1 (a frame file changed under us, a full disk)
+     * still leaves no temporary group; its space may stay in the file. */
+    if (st != DTX_OK && seq_made && !seq.committed)
+        dtx_h5_remove(f, seq.path, &e2);
     if (st == DTX_OK)
         fprintf(stderr, "dtx: %d frames -> %s:%s (%s)\n", nframes, out, group,
                 f64 ? "float64" : "float32");
+done:
     for (int i = 0; i < nframes; i++)
         free(files[i]);
     free(files);
     free(buf);
+    free(cache);
     dtx_mesh_free(&rest);
     return finish_import(out, &f, created, st, &err);
 }

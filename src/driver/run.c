@@ -225,6 +225,16 @@ static void say(run_state *r, const char *fmt, ...)
         fprintf(stderr, "%s\n", line);
 }
 
+/* A mesh split along seams (vertices at the position of another) is welded
+ * for the solve; its results keep every vertex of the asset. */
+static void say_welded(run_state *r, const char *role, const char *what, const dtx_weld_ctx *w)
+{
+    int n = (int)(w->nv - w->nw);
+    say(r, "dtx: %s mesh %s: %d %s at the position of another vertex (seams) welded for the "
+           "solve; results keep its %d vertices, twins moving together",
+        role, what, n, n == 1 ? "vertex" : "vertices", (int)w->nv);
+}
+
 /* mkdir -p of the directory part of path (dir_only != 0) or of path. */
 static dtx_status make_dirs(const char *path, int dir_only, dtx_error *err)
 {
@@ -614,7 +624,7 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
     if (rep.duplicate_positions > 0)
         snprintf(seams, sizeof seams,
                  "; %d of its vertices sit at the position of another vertex (vertices %d and "
-                 "%d first): split along seams? weld them",
+                 "%d first): split along seams? a weld_tolerance >= 0 welds them",
                  (int)rep.duplicate_positions, (int)rep.dup_vertex[0], (int)rep.dup_vertex[1]);
     if (is_target && rep.components > 1 && r->job.method == DTX_METHOD_BIHARMONIC &&
         r->job.bh.keypoints == DTX_BH_KEYS_AUTO)
@@ -669,6 +679,8 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
             char wwhat[4400];
             snprintf(wwhat, sizeof wwhat, "%s:%s", tc->tj->file, tc->tj->mesh);
             st = dtx_weld_setup(&tc->mesh, tc->tj->weld_tolerance, wwhat, &tc->weld, err);
+            if (st == DTX_OK && tc->weld.nw < tc->weld.nv)
+                say_welded(r, "target", wwhat, &tc->weld);
         }
         if (st == DTX_OK)
             st = check_mesh(r, tc->tj->file, tc->tj->mesh, &tc->mesh, 1, err);
@@ -761,6 +773,8 @@ static dtx_status read_inputs(run_state *r, dtx_error *err)
         char wwhat[4400];
         snprintf(wwhat, sizeof wwhat, "%s:%s", r->job.source_file, r->job.source_mesh);
         st = dtx_weld_setup(&r->src, r->job.source_weld_tolerance, wwhat, &r->src_weld, err);
+        if (st == DTX_OK && r->src_weld.nw < r->src_weld.nv)
+            say_welded(r, "source", wwhat, &r->src_weld);
     }
     if (st == DTX_OK)
         st = check_mesh(r, r->job.source_file, r->job.source_mesh, &r->src, 0, err);

@@ -627,6 +627,44 @@ dtx_status dtx_h5_create_groups(hid_t file, const char *path, dtx_error *err)
     return st;
 }
 
+dtx_status dtx_h5_check_name(const char *name, dtx_error *err)
+{
+    char shown[DTX_H5_NAME_MAX + 1];
+    const char *why = NULL;
+    size_t len, i;
+    if (!name)
+        return dtx_seterr(err, DTX_EINVAL, "no object name given");
+    len = strlen(name);
+    /* The name as printed: control characters would garble the terminal. */
+    for (i = 0; i < len && i + 1 < sizeof shown; i++)
+        shown[i] = (unsigned char)name[i] < 32 || name[i] == 127 ? '?' : name[i];
+    shown[i] = '\0';
+    if (len == 0)
+        why = "it is empty";
+    else if (strchr(name, '/'))
+        why = "it contains '/' (a name is one part of an HDF5 path)";
+    else if (strcmp(name, ".") == 0 || strcmp(name, "..") == 0)
+        why = "HDF5 reads \".\" and \"..\" as the current and the parent group";
+    else if (strncmp(name, DTX_H5_RESERVED_PREFIX, strlen(DTX_H5_RESERVED_PREFIX)) == 0)
+        why = "names starting with \"" DTX_H5_RESERVED_PREFIX "\" are reserved for dtx's "
+              "temporary objects";
+    else if (len > DTX_H5_NAME_MAX)
+        return dtx_seterr(err, DTX_EINVAL,
+                          "\"%.60s...\" cannot name an HDF5 object: it is %zu bytes long, more "
+                          "than %d", shown, len, DTX_H5_NAME_MAX);
+    else
+        for (i = 0; i < len; i++)
+            if ((unsigned char)name[i] < 32 || name[i] == 127)
+                return dtx_seterr(err, DTX_EINVAL,
+                                  "\"%s\" cannot name an HDF5 object: it contains the control "
+                                  "character 0x%02x (byte %zu)",
+                                  shown, (unsigned)(unsigned char)name[i], i);
+    if (why)
+        return dtx_seterr(err, DTX_EINVAL, "\"%s\" cannot name an HDF5 object: %s", shown,
+                          why);
+    return DTX_OK;
+}
+
 dtx_status dtx_h5_tmp_path(const char *final, char *tmp, size_t n, dtx_error *err)
 {
     const char *slash;
@@ -698,6 +736,13 @@ static dtx_status begin_group(hid_t file, const char *final, int allow_existing,
     *group = H5I_INVALID_HID;
     if ((st = dtx_h5_tmp_path(final, tmp, DTX_H5_PATH_MAX, err)) != DTX_OK) {
         dtx_error_prefix(err, "%s", dtx_h5_filename(file, parent, sizeof parent));
+        return st;
+    }
+    /* Every writer comes through here: a name HDF5 would misread, or one
+     * that looks like an interrupted writer's leftover, is refused before
+     * anything is created. */
+    if ((st = dtx_h5_check_name(strrchr(final, '/') + 1, err)) != DTX_OK) {
+        dtx_error_prefix(err, "%s: %s", dtx_h5_filename(file, parent, sizeof parent), final);
         return st;
     }
     if (!allow_existing && link_exists(file, final))
@@ -1678,6 +1723,7 @@ dtx_status dtx_h5_seq_create(hid_t file, const char *group, const char *rest_mes
 {
     dtx_status st;
     hid_t lcpl = H5I_INVALID_HID;
+    int made;
     memset(seq, 0, sizeof *seq);
     seq->file = file;
     seq->group = seq->dset = H5I_INVALID_HID;
@@ -1716,7 +1762,12 @@ dtx_status dtx_h5_seq_create(hid_t file, const char *group, const char *rest_mes
     return DTX_OK;
 fail:
     CLOSE_ID(H5Pclose, lcpl);
+    made = seq->group >= 0;
     dtx_h5_seq_close(seq);
+    if (made) { /* leave no temporary group behind */
+        dtx_error e2;
+        dtx_h5_remove(file, seq->path, &e2);
+    }
     return st;
 }
 

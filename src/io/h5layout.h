@@ -150,6 +150,26 @@ int dtx_h5_path_exists(hid_t file, const char *path);
  * existing group is fine. */
 dtx_status dtx_h5_create_groups(hid_t file, const char *path, dtx_error *err);
 
+/* Longest object name (one path component, in bytes) dtx writes or reads
+ * as an input's name: long enough for any real name, short enough that
+ * "/results/TARGET/.dtx-tmp-SEQUENCE" stays far below DTX_H5_PATH_MAX. */
+#define DTX_H5_NAME_MAX 255
+/* Names starting with this are reserved for dtx's own temporary objects. */
+#define DTX_H5_RESERVED_PREFIX ".dtx-"
+
+/* The one rule for the name of an object dtx writes (the NAME of
+ * /meshes/NAME, /sequences/NAME, /results/TARGET/NAME, ...): not empty, no
+ * '/', not "." or ".." (which HDF5 reads as the current and the parent
+ * group), not starting with ".dtx-" (reserved: a temporary group of an
+ * interrupted writer), no control character (bytes 1-31 and 127), at most
+ * DTX_H5_NAME_MAX bytes.  Returns DTX_OK or DTX_EINVAL with err->msg
+ * "\"NAME\" cannot name an HDF5 object: REASON" (control characters shown
+ * as '?'); the caller prefixes where the name came from.  Used by every
+ * writer (on the last component of the group path), by `dtx import` for
+ * --name and by the job parser; schemas/job.schema.json mirrors it for
+ * target names.  Pure; thread-safe. */
+dtx_status dtx_h5_check_name(const char *name, dtx_error *err);
+
 /* The temporary name of final path: "/a/b/name" -> "/a/b/.dtx-tmp-name",
  * written into tmp[n].  DTX_EINVAL when final is not an absolute path with
  * a last component, or too long. */

@@ -20,6 +20,7 @@
 #include "keypoints.h"
 #include "springs.h"
 
+#include "h5layout.h"
 #include "json_schema.h"
 
 #include <cjson/cJSON.h>
@@ -297,18 +298,23 @@ static int same_file(const char *a, const char *b)
 /* Names                                                               */
 /* ------------------------------------------------------------------ */
 
-/* The rule of the schema's "name" pattern, ^[A-Za-z0-9_.-]+$, plus the two
- * names that HDF5 would read as the current and the parent group. */
-static int valid_name(const char *s)
+/* A target name: the schema's "name" pattern (letters, digits, _ . -) and
+ * the rule every object name follows (dtx_h5_check_name: not "." or "..",
+ * not starting with the reserved ".dtx-", at most DTX_H5_NAME_MAX bytes).
+ * Returns 1 when valid; else 0 with the reason in err. */
+static int valid_name(const char *s, dtx_error *err)
 {
     const char *p;
-    if (!s[0] || strcmp(s, ".") == 0 || strcmp(s, "..") == 0)
+    if (dtx_h5_check_name(s, err) != DTX_OK)
         return 0;
     for (p = s; *p; p++) {
         char ch = *p;
         if (!((ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') ||
-              ch == '_' || ch == '.' || ch == '-'))
+              ch == '_' || ch == '.' || ch == '-')) {
+            dtx_seterr(err, DTX_EJOB,
+                       "\"%.200s\" cannot name a target: use letters, digits, _ . and -", s);
             return 0;
+        }
     }
     return 1;
 }
@@ -409,6 +415,7 @@ static dtx_status fill_target(fillctx *f, const cJSON *t, int index, dtx_job_tar
 {
     const cJSON *markers = get(t, "markers"), *pins = get(t, "pins"), *ib, *pin;
     char ptr[64];
+    dtx_error why;
     dtx_status st;
     int tr, i;
 
@@ -421,16 +428,15 @@ static dtx_status fill_target(fillctx *f, const cJSON *t, int index, dtx_job_tar
         tg->name = base_name(tg->mesh);
         if (!tg->name)
             return nomem(f);
-        if (!valid_name(tg->name))
+        if (!valid_name(tg->name, &why))
             return job_err(f->err, DTX_EJOB, f->name, ptr,
-                           "the mesh path \"%s\" gives no usable target name (\"%s\"); give "
+                           "the mesh path \"%s\" gives no usable target name (%s); give "
                            "\"name\" (letters, digits, _ . -)",
-                           tg->mesh, tg->name);
-    } else if (!valid_name(tg->name)) {
+                           tg->mesh, why.msg);
+    } else if (!valid_name(tg->name, &why)) {
         char p2[80];
         snprintf(p2, sizeof p2, "%s/name", ptr);
-        return job_err(f->err, DTX_EJOB, f->name, p2, "\"%s\" cannot name an HDF5 group",
-                       tg->name);
+        return job_err(f->err, DTX_EJOB, f->name, p2, "%s", why.msg);
     }
 
     if ((st = fill_path(f, markers, "csv", &tg->markers.csv)) ||
@@ -749,6 +755,26 @@ static dtx_status cross_check(fillctx *f, const dtx_job *job, int check_files)
     input_file *inputs;
     int32_t i, j, n = 0;
     dtx_status st = DTX_OK;
+
+    /* ---- sequence names: each becomes a result's name
+     * (/results/TARGET/NAME), so it follows the object name rule; a "*"
+     * stands for the sequences found, which are listed without temporary
+     * groups. ---- */
+    for (i = 0; i < job->nsequences; i++) {
+        char *b = base_name(job->sequences[i]), ptr[64];
+        dtx_error why;
+        int bad;
+        if (!b)
+            return nomem(f);
+        bad = strcmp(b, "*") != 0 && dtx_h5_check_name(b, &why) != DTX_OK;
+        free(b);
+        if (bad) {
+            snprintf(ptr, sizeof ptr, "/source/sequences/%d", (int)i);
+            return job_err(f->err, DTX_EJOB, f->name, ptr,
+                           "the sequence path \"%.300s\" gives no usable result name: %s",
+                           job->sequences[i], why.msg);
+        }
+    }
 
     /* ---- repeated sequences ---- */
     for (i = 1; i < job->nsequences; i++)

@@ -228,6 +228,94 @@ else
     bad seq-frame-nonfinite "seq.h5 damaged by the failed imports"
 fi
 
+# A failed import into an existing file leaves it as it was: no temporary
+# group anywhere, and not one byte more (HDF5 keeps the space of unlinked
+# data, so frames written before the bad one would stay as dead bytes).
+# 20 good frames first: more than one 16-frame chunk.
+for i in $(seq -w 1 20); do cp src-2.obj ok-$i.obj; done
+"$PY" - <<'PY'
+lines = open("src-2.obj").read().splitlines()
+v = [l for l in lines if l.startswith("v ")]
+f = [l for l in lines if l.startswith("f ") and "86" not in l.split()[1:]]
+open("frame-nv.obj", "w").write("\n".join(v[:-1] + f) + "\n")
+open("frame-empty.obj", "w").write("")
+PY
+seq_fail() { # seq_fail ROW FRAME PATTERN
+    local before msg
+    cp in.h5 seqf.h5; before=$(stat -c %s seqf.h5)
+    reject "$1" "" "$3" "$DTX" import sequence ok-*.obj "$2" -o seqf.h5 --name bad --mesh /meshes/src
+    if ! msg=$("$PY" - seqf.h5 "$before" <<'PY' 2>&1
+import os, sys, h5py
+left = []
+with h5py.File(sys.argv[1], "r") as f:
+    f.visit(lambda n: left.append(n) if ".dtx-" in n or n.endswith("/bad") else None)
+assert not left, "left behind: %s" % left
+size, before = os.path.getsize(sys.argv[1]), int(sys.argv[2])
+assert size == before, "the file grew from %d to %d bytes" % (before, size)
+PY
+    ); then bad "$1" "seqf.h5: $msg"; return; fi
+    if ! msg=$("$DTX" validate seqf.h5 2>&1); then bad "$1" "seqf.h5 does not validate: $msg"; return; fi
+    ok "$1" "seqf.h5: no temporary group, same size ($before bytes), validates"
+}
+seq_fail seq-into-existing frame-nv.obj 'frame-nv\.obj: frame 20 has 85 vertices but the rest mesh /meshes/src has 86'
+seq_fail seq-into-existing frame-nan.obj 'frame-nan\.obj:7: vertex 7 has a non-finite coordinate'
+seq_fail seq-into-existing frame-empty.obj 'frame-empty\.obj: empty file'
+seq_fail seq-into-existing frame-faces.obj 'frame-faces\.obj: frame 20 has different faces'
+seq_fail seq-into-existing missing.obj 'missing\.obj: no such file or directory'
+# Frames beyond the in-memory budget are read a second time for writing
+# (DTX_IMPORT_CACHE_FRAMES shrinks the budget to 3 frames): the sequence is
+# the same as one written from memory.
+cp in.h5 seqc.h5
+if "$DTX" import sequence ok-*.obj src-3.obj -o seqc.h5 --name all --mesh /meshes/src 2>/dev/null &&
+   DTX_IMPORT_CACHE_FRAMES=3 "$DTX" import sequence ok-*.obj src-3.obj -o seqc.h5 --name some \
+       --mesh /meshes/src 2>/dev/null &&
+   msg=$("$PY" -c '
+import h5py, numpy as np
+with h5py.File("seqc.h5", "r") as f:
+    a, b = f["/sequences/all/positions"][...], f["/sequences/some/positions"][...]
+    assert a.shape == (21, 86, 3) and np.array_equal(a, b), (a.shape, b.shape)
+    assert not np.array_equal(a[0], a[20]), "src-3.obj is the last frame"' 2>&1); then
+    ok seq-into-existing "21 frames read once or (18 of them) twice give the same sequence"
+else
+    bad seq-into-existing "the import reading frames twice differs or failed: ${msg:-}"
+fi
+DTX_IMPORT_CACHE_FRAMES=3 seq_fail seq-into-existing frame-nan.obj 'frame-nan\.obj:7: vertex 7 has a non-finite coordinate'
+reject seq-missing-file out.h5 'no-such-dir: no such file or directory' \
+    "$DTX" import sequence no-such-dir -o out.h5 --name s --mesh /meshes/src
+
+# ----------------------------------------------------------------- names
+# One rule for every object name (dtx_h5_check_name): refused before any
+# file is read or written.
+name_rej() { # name_rej NAME PATTERN
+    reject import-name out.h5 "--name: $2" "$DTX" import mesh src.obj -o out.h5 --name "$1"
+    reject import-name "" "--name: $2" "$DTX" import sequence src-1.obj -o seq.h5 --name "$1" \
+        --mesh /meshes/src
+}
+name_rej .. '"\.\." cannot name an HDF5 object: HDF5 reads'
+name_rej . '"\." cannot name an HDF5 object: HDF5 reads'
+name_rej .dtx-tmp-x '"\.dtx-tmp-x" cannot name an HDF5 object: names starting with "\.dtx-" are reserved'
+name_rej a/b "\"a/b\" cannot name an HDF5 object: it contains '/'"
+name_rej "$(printf 'a\tb')" '"a\?b" cannot name an HDF5 object: it contains the control character 0x09'
+name_rej "$(printf 'n%.0s' $(seq 256))" '"n+\.\.\." cannot name an HDF5 object: it is 256 bytes long, more than 255'
+name_rej "" '"" cannot name an HDF5 object: it is empty'
+reject import-name mk2.h5 '/markers/\.\.: "\.\." cannot name an HDF5 object' \
+    "$DTX" import markers markers.csv --index-base 0 -o mk2.h5 --name ..
+if ! msg=$("$PY" - seq.h5 <<'PY' 2>&1
+import sys, h5py
+left = []
+with h5py.File(sys.argv[1], "r") as f:
+    f.visit(lambda n: left.append(n) if ".dtx-" in n else None)
+assert not left, "left behind: %s" % left
+PY
+); then bad import-name "seq.h5: $msg"; else ok import-name "seq.h5: no temporary group after the refused names"; fi
+job j_tmpname src src tgt
+sed -i 's#"name": "tgt"#"name": ".dtx-tmp-x"#' j_tmpname.json
+reject job-target-name j_tmpname.h5 'j_tmpname\.json: at /targets/0/name: expected a string matching' "$DTX" run j_tmpname.json
+job j_seqname src src tgt
+sed -i 's#"/sequences/src"#"/sequences/.."#' j_seqname.json
+reject job-target-name j_seqname.h5 'j_seqname\.json: at /source/sequences/0: the sequence path "/sequences/\.\." gives no usable result name' \
+    "$DTX" run j_seqname.json
+
 # ----------------------------------------------- HDF5 from other programs
 # Copies of in.h5 with one defect each, written with h5py; each is the
 # source file of a job (and must fail `dtx validate` too, except seq_nan:
@@ -307,6 +395,45 @@ sed -i 's#"source": {"file": "in.h5"#"source": {"file": "h5_seqnan.h5"#' j_h5_se
 reject h5-seq-nonfinite "" 'h5_seqnan\.h5: /sequences/src/positions: frame 2 \(0-based\), vertex 5 has a non-finite coordinate' \
     "$DTX" run --quiet j_h5_seqnan.json
 if [ -e j_h5_seqnan.h5 ]; then bad h5-seq-nonfinite "j_h5_seqnan.h5 was written"; fi
+# dtx export of a sequence with that NaN: every frame is checked before the
+# first output, so no output at all is written (not the frames before the
+# NaN, not the rest OBJ, PC2 or glb), and an existing --obj-dir keeps only
+# what it had.
+export_nothing() { # export_nothing DIR OUTPUT-ARGS...
+    local dir=$1 left; shift
+    reject export-nonfinite "" 'h5_seqnan\.h5: /sequences/src: frame 2 \(0-based\), vertex 5 has a non-finite coordinate \(nan\); nothing was exported' \
+        "$DTX" export h5_seqnan.h5 /sequences/src "$@"
+    left=$(find . \( -name 'ex.*' -o -name '.ex*' -o -name '*.tmp-*' -o -path "./$dir/*" \) \
+        ! -name old.txt | head -5)
+    if [ -n "$left" ]; then bad export-nonfinite "left behind: $left"; fi
+}
+export_nothing exdir --obj-dir exdir
+[ -e exdir ] && bad export-nonfinite "exdir was created"
+export_nothing exdir --obj-rest ex.obj --pc2 ex.pc2 --glb ex.glb --obj-dir exdir
+mkdir -p exkeep && echo keep > exkeep/old.txt
+export_nothing exkeep --obj-dir exkeep/ --pc2 ex.pc2
+if [ "$(ls -A exkeep)" = old.txt ]; then ok export-nonfinite "exkeep/ holds only old.txt"
+else bad export-nonfinite "exkeep/ holds: $(ls -A exkeep)"; fi
+# An output that fails after others were written (here --obj-dir under a
+# missing directory, last in order) removes the ones this export created.
+reject export-later-failure "" 'no-parent/frames: cannot create directory' \
+    "$DTX" export in.h5 /sequences/src --obj-rest ex2.obj --pc2 ex2.pc2 --glb ex2.glb \
+    --obj-dir no-parent/frames
+left=$(find . \( -name 'ex2.*' -o -name '.ex2*' -o -name '*.tmp-*' \) | head -5)
+if [ -n "$left" ]; then bad export-later-failure "left behind: $left"
+else ok export-later-failure "no rest OBJ, PC2 or glb left"; fi
+# The same export from the clean file writes every frame, into a new and
+# into an existing directory, and leaves no temporary directory.
+if "$DTX" export in.h5 /sequences/src --obj-dir exkeep 2>/dev/null &&
+   "$DTX" export in.h5 /sequences/src --obj-dir exnew/ 2>/dev/null &&
+   [ "$(ls -A exkeep | tr '\n' ' ')" = "old.txt src-00001.obj src-00002.obj src-00003.obj " ] &&
+   [ "$(ls -A exnew | tr '\n' ' ')" = "src-00001.obj src-00002.obj src-00003.obj " ] &&
+   [ -z "$(find . -name '*.tmp-*' | head -1)" ]; then
+    ok export-nonfinite "clean exports: 3 frames into exkeep/ (old.txt kept) and exnew/, no temporary left"
+else
+    bad export-nonfinite "clean exports: exkeep: $(ls -A exkeep); exnew: $(ls -A exnew 2>&1)"
+fi
+
 # Markers stored with a float dtype.
 "$DTX" import markers markers.csv --index-base 0 -o mk.h5 --name m 2>/dev/null
 "$PY" -c '
@@ -389,8 +516,29 @@ job j_two src src tgt_two
 reject topo-components-target j_two.h5 'in\.h5:/meshes/tgt_two: the target mesh has 2 connected components \(vertex 86 is not connected to vertex 0\) and method sp04 needs one.*multicomponent' \
     "$DTX" run j_two.json
 job j_seam src src tgt_seam
-reject topo-seam-target j_seam.h5 'in\.h5:/meshes/tgt_seam: the target mesh has 2 connected components.*12 of its vertices sit at the position of another vertex \(vertices 25 and 86 first\): split along seams\? weld them' \
-    "$DTX" run j_seam.json
+# Seam twins are welded for the solve: accepted, and every pair of vertices at
+# one rest position moves together in every frame (the result keeps all of them).
+accept topo-seam-target 'target mesh .*in\.h5:/meshes/tgt_seam: 12 vertices at the position of another vertex \(seams\) welded for the solve; results keep its 98 vertices' \
+    "$DTX" run j_seam.json && finite_valid topo-seam-target j_seam.h5 /results/tgt_seam/src &&
+    if msg=$("$PY" - j_seam.h5 <<'PY' 2>&1
+import sys, h5py, numpy as np
+f = h5py.File(sys.argv[1], "r")
+r = f["/results/tgt_seam/src"]
+V = r["target/vertices"][...]
+X = r["positions"][...]
+assert X.shape[1] == V.shape[0] == 98, X.shape
+_, first, inv = np.unique(V, axis=0, return_index=True, return_inverse=True)
+twins = np.flatnonzero(first[inv.ravel()] != np.arange(len(V)))
+assert len(twins) == 12, len(twins)
+gap = np.abs(X[:, twins] - X[:, first[inv.ravel()][twins]]).max()
+assert gap == 0, "twins apart by %g" % gap
+PY
+    ); then ok topo-seam-target "12 twins move together exactly"; else bad topo-seam-target "$msg"; fi
+# With welding off (weld_tolerance -1) the split target is refused as before.
+sed 's#"mesh": "/meshes/tgt_seam",#"mesh": "/meshes/tgt_seam", "weld_tolerance": -1,#' j_seam.json > j_seam_nw.json
+sed -i 's#j_seam\.h5#j_seam_nw.h5#' j_seam_nw.json
+reject topo-seam-unwelded j_seam_nw.h5 'in\.h5:/meshes/tgt_seam: the target mesh has 2 connected components.*12 of its vertices sit at the position of another vertex \(vertices 25 and 86 first\): split along seams\? a weld_tolerance >= 0 welds them' \
+    "$DTX" run j_seam_nw.json
 job j_srctwo src_two src_two tgt
 accept topo-components-source "" "$DTX" run j_srctwo.json && finite_valid topo-components-source j_srctwo.h5 /results/tgt/src_two
 # Accepted target defects, all in one job (one result each).
@@ -401,7 +549,7 @@ if "$DTX" run j_acc.json > /dev/null 2> acc.err; then
         else bad "$1" "no /$2/ in: $(cat acc.err)"; fi
     }
     chk topo-unreferenced-target 'warning: target mesh .*in\.h5:/meshes/tgt_unref: 1 vertex in no triangle \(vertex 86 first\); accepted'
-    chk topo-duplicate-vertex 'warning: target mesh .*in\.h5:/meshes/tgt_dup: 1 vertex at exactly the position of another vertex \(vertices 40 and 86 first\); accepted'
+    chk topo-duplicate-vertex 'target mesh .*in\.h5:/meshes/tgt_dup: 1 vertex at the position of another vertex \(seams\) welded for the solve; results keep its 87 vertices'
     chk topo-nonmanifold-target 'warning: target mesh .*in\.h5:/meshes/tgt_nonman: 1 non-manifold edge \(edge [0-9]+-[0-9]+ first, shared by 3 triangles\); accepted'
     chk topo-duplicate-face 'warning: target mesh .*in\.h5:/meshes/tgt_dupface: .*1 triangle on the same three vertices as another \(faces 7 and 168 first\); accepted'
     chk degenerate-zero-target 'warning: target mesh .*in\.h5:/meshes/tgt_zero: 1 triangle of zero area or thinner than 0\.0001 of the longest edge \(face 20 first'

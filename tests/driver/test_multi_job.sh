@@ -256,8 +256,14 @@ job dupname '"/sequences/poses"' \
       "markers": {"file": "in.h5", "path": "/markers/cat-self"}}'
 check "two targets named lion: refused, naming /targets/1" refused dupname '/targets/1'
 
+# A name is one path part (dtx import refuses "more/poses"): the nested
+# sequence another program could write is made by moving an imported one.
 "$DTX" import sequence "$D/source/cat-03.obj" "$D/source/cat-04.obj" -o "$W/in.h5" \
-    --name more/poses --mesh /meshes/cat 2> /dev/null
+    --name more-poses --mesh /meshes/cat 2> /dev/null
+"$PY" -c 'import sys, h5py
+with h5py.File(sys.argv[1], "r+") as f:
+    f.create_group("/sequences/more")
+    f.move("/sequences/more-poses", "/sequences/more/poses")' "$W/in.h5"
 job dupbase '"/sequences/poses", "/sequences/more/poses"' \
     '{"name": "lion", "file": "in.h5", "mesh": "/meshes/lion",
       "markers": {"file": "in.h5", "path": "/markers/cat-lion"}}'

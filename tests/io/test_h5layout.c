@@ -980,6 +980,62 @@ static void test_results(void)
     CHECK_OK(dtx_h5_close(&f, &e), &e);
 }
 
+/* One name rule (dtx_h5_check_name) and every writer applies it to the
+ * last part of its group path before creating anything. */
+static void test_names(void)
+{
+    static const char *const good[] = {"lion", "a", "...", "..x", ".x", ".dtx", ".dtxtmp",
+                                       "big lion", "cat-poses.01", "\xc3\xa9t\xc3\xa9"};
+    static const struct {
+        const char *name, *why;
+    } bad[] = {{"", "it is empty"},
+               {"a/b", "contains '/'"},
+               {".", "current and the parent group"},
+               {"..", "current and the parent group"},
+               {".dtx-", "reserved"},
+               {".dtx-tmp-x", "reserved"},
+               {".dtx-lock", "reserved"},
+               {"tab\there", "control character 0x09 (byte 3)"},
+               {"del\x7f", "control character 0x7f"}};
+    char longname[DTX_H5_NAME_MAX + 2];
+    dtx_error e;
+    dtx_mesh m;
+    hid_t f = new_file(SCRATCH "names.h5");
+    dtx_h5_seq s;
+    for (size_t i = 0; i < sizeof good / sizeof *good; i++)
+        CHECK_OK(dtx_h5_check_name(good[i], &e), &e);
+    for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
+        CHECK_EQ_INT(dtx_h5_check_name(bad[i].name, &e), DTX_EINVAL);
+        CHECK(contains(e.msg, "cannot name an HDF5 object"));
+        CHECK(contains(e.msg, bad[i].why));
+    }
+    CHECK(strchr(e.msg, 0x7f) == NULL); /* shown as '?' */
+    memset(longname, 'n', DTX_H5_NAME_MAX);
+    longname[DTX_H5_NAME_MAX] = '\0';
+    CHECK_OK(dtx_h5_check_name(longname, &e), &e);
+    longname[DTX_H5_NAME_MAX] = 'n';
+    longname[DTX_H5_NAME_MAX + 1] = '\0';
+    CHECK_EQ_INT(dtx_h5_check_name(longname, &e), DTX_EINVAL);
+    CHECK(contains(e.msg, "256 bytes long, more than 255"));
+
+    /* The writers: refused before anything is created. */
+    make_tet(&m, 1.0);
+    CHECK_OK(dtx_h5_write_mesh(f, "/meshes/tet", &m, "tet.obj", &e), &e);
+    CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/..", &m, NULL, &e), DTX_EINVAL);
+    CHECK(contains(e.msg, "names.h5: /meshes/..: \"..\" cannot name an HDF5 object"));
+    CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/.dtx-tmp-x", &m, NULL, &e), DTX_EINVAL);
+    CHECK(contains(e.msg, "reserved"));
+    CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/.", "/meshes/tet", 3, 4, 0, 0, 0, &s, &e),
+                 DTX_EINVAL);
+    dtx_h5_seq_close(&s);
+    CHECK_EQ_INT(dtx_h5_path_exists(f, "/meshes/.dtx-tmp-.."), 0);
+    CHECK_EQ_INT(dtx_h5_path_exists(f, "/meshes/.dtx-tmp-.dtx-tmp-x"), 0);
+    CHECK_EQ_INT(dtx_h5_path_exists(f, "/sequences/.dtx-tmp-."), 0);
+    CHECK_EQ_INT(dtx_h5_path_exists(f, "/sequences"), 0);
+    dtx_mesh_free(&m);
+    CHECK_OK(dtx_h5_close(&f, &e), &e);
+}
+
 int main(void)
 {
     dtx_h5_init();
@@ -993,5 +1049,6 @@ int main(void)
     run(test_markers, "markers");
     run(test_corr, "corr");
     run(test_results, "results");
+    run(test_names, "names");
     return check_report();
 }

@@ -9,6 +9,7 @@
 
 #include "check.h"
 #include "dtx_core.h"
+#include "h5layout.h"
 #include "job.h"
 #include "json_schema.h"
 
@@ -533,8 +534,7 @@ static void test_schema_violations(void)
                          "[{\"name\":\"big lion\",\"file\":\"a.h5\",\"mesh\":\"/m\","
                          "\"markers\":{\"file\":\"a\",\"path\":\"/p\"}}]",
                          NULL, NULL),
-                "at /targets/0/name: expected a string matching ^[A-Za-z0-9_.-]+$, got \"big "
-                "lion\"");
+                "[A-Za-su-z0-9_.-][A-Za-z0-9_.-]*)?)$, got \"big lion\"");
     /* Repeated keys would otherwise be silently ignored by a lookup. */
     EXPECT_FAIL(job_text(NULL, NULL, "{\"file\":\"o.h5\",\"file\":\"p.h5\"}", NULL),
                 "at /output: duplicate key \"file\"");
@@ -634,7 +634,25 @@ static void test_cross_field(void)
                          "[{\"name\":\"..\",\"file\":\"a.h5\",\"mesh\":\"/m\","
                          "\"markers\":{\"file\":\"a\",\"path\":\"/p\"}}]",
                          NULL, NULL),
-                "at /targets/0/name: \"..\" cannot name an HDF5 group");
+                "at /targets/0/name: expected a string matching ^(");
+    /* A name from the mesh path goes through the same rule in job.c. */
+    EXPECT_FAIL(job_text(NULL,
+                         "[{\"file\":\"a.h5\",\"mesh\":\"/meshes/.dtx-tmp-lion\","
+                         "\"markers\":{\"file\":\"a\",\"path\":\"/p\"}}]",
+                         NULL, NULL),
+                "at /targets/0: the mesh path \"/meshes/.dtx-tmp-lion\" gives no usable target "
+                "name (\".dtx-tmp-lion\" cannot name an HDF5 object: names starting with "
+                "\".dtx-\" are reserved");
+    /* A sequence's last part names its results. */
+    EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\",\"/s/..\"]}",
+                         NULL, NULL, NULL),
+                "at /source/sequences/1: the sequence path \"/s/..\" gives no usable result name: "
+                "\"..\" cannot name an HDF5 object");
+    EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\","
+                         "\"sequences\":[\"/sequences/.dtx-tmp-walk\"]}",
+                         NULL, NULL, NULL),
+                "at /source/sequences/0: the sequence path \"/sequences/.dtx-tmp-walk\" gives "
+                "no usable result name");
     EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\",\"/t\",\"/s\"]}",
                          NULL, NULL, NULL),
                 "at /source/sequences/2: sequence \"/s\" is listed twice (also "
@@ -975,6 +993,56 @@ static void test_fuzz_regressions(void)
     }
 }
 
+/* The schema's pattern for target names and job.c's rule (the characters
+ * plus dtx_h5_check_name) accept the same names: the schema mirrors the
+ * rule, so an editor validating against it sees what dtx run will say. */
+static void test_target_name_rule(void)
+{
+    static const char *const names[] = {
+        "lion", "Lion_2.v-1", "a", "-", "_", ".x", ".d", ".dt", ".dtx", ".dtxa", ".dtx.",
+        "..x", "...", "a.dtx-", "x..", ".e", ".c",
+        /* rejected */
+        ".", "..", ".dtx-", ".dtx-tmp-lion", ".dtx-x", "", "big lion", "a/b", "tab\there"};
+    char targets[2048], longname[300];
+    size_t k;
+    for (k = 0; k < sizeof names / sizeof *names + 2; k++) {
+        const char *nm;
+        dtx_job job;
+        dtx_error err, why;
+        int want, got;
+        const char *p;
+        if (k < sizeof names / sizeof *names) {
+            nm = names[k];
+        } else { /* 255 and 256 bytes */
+            size_t len = k == sizeof names / sizeof *names ? 255 : 256;
+            memset(longname, 'n', len);
+            longname[len] = '\0';
+            nm = longname;
+        }
+        want = dtx_h5_check_name(nm, &why) == DTX_OK;
+        for (p = nm; *p; p++)
+            if (!((*p >= 'A' && *p <= 'Z') || (*p >= 'a' && *p <= 'z') ||
+                  (*p >= '0' && *p <= '9') || *p == '_' || *p == '.' || *p == '-'))
+                want = 0;
+        snprintf(targets, sizeof targets,
+                 "[{\"name\":\"%s\",\"file\":\"a.h5\",\"mesh\":\"/m\","
+                 "\"markers\":{\"file\":\"a\",\"path\":\"/p\"}}]",
+                 strcmp(nm, "tab\there") == 0 ? "tab\\there" : nm);
+        got = parse(job_text(NULL, targets, NULL, NULL), "/data/jobs", 0, &job, &err) == DTX_OK;
+        if (got)
+            dtx_job_free(&job);
+        if (got != want)
+            fprintf(stderr, "target name \"%.40s\": the rule says %s, the job parser says %s%s%s\n",
+                    nm, want ? "valid" : "invalid", got ? "valid" : "invalid",
+                    got ? "" : ": ", got ? "" : err.msg);
+        CHECK_EQ_INT(got, want);
+        /* The schema alone (before job.c's check) already rejects a bad
+         * name, naming the pointer. */
+        if (!want && !got && nm[0])
+            CHECK(strstr(err.msg, "at /targets/0/name: expected a string") != NULL);
+    }
+}
+
 int main(void)
 {
     test_embedded_schema();
@@ -993,5 +1061,6 @@ int main(void)
     test_multicomponent_params();
     test_corpus();
     test_fuzz_regressions();
+    test_target_name_rule();
     return check_report();
 }
