@@ -101,7 +101,32 @@ static const char *plural(int64_t n, const char *one, const char *many)
 
 /* ------------------------------------------------------------ text */
 
-static void print_item(FILE *o, const dtx_h5_item *it)
+/* A sequence's frame file names: every one with all_frames, else the first
+ * and last few. */
+static void frame_names(FILE *o, const dtx_h5_item *it, int all_frames)
+{
+    const int64_t head = 4, tail = 2;
+    if (!it->frame_names || it->nframes <= 0)
+        return;
+    fprintf(o, "      %-16s", "frame files");
+    for (int64_t f = 0; f < it->nframes; f++) {
+        const char *n = it->frame_names[f] ? it->frame_names[f] : "";
+        if (all_frames) {
+            fprintf(o, "%s%lld: %s", f ? "\n                       " : " ", (long long)f, n);
+            continue;
+        }
+        if (f == head && it->nframes > head + tail + 1) {
+            fprintf(o, ", ... (%lld more; dtx inspect --frames lists all)",
+                    (long long)(it->nframes - head - tail));
+            f = it->nframes - tail - 1;
+            continue;
+        }
+        fprintf(o, "%s%s", f ? ", " : " ", n);
+    }
+    fputc('\n', o);
+}
+
+static void print_item(FILE *o, const dtx_h5_item *it, int all_frames)
 {
     fprintf(o, "  %s", it->path);
     if (it->temporary)
@@ -129,6 +154,7 @@ static void print_item(FILE *o, const dtx_h5_item *it)
         fputc('\n', o);
         detail(o, "rest mesh", it->mesh);
         frame_rate(o, attr(it, "fps"));
+        frame_names(o, it, all_frames);
         break;
     case DTX_H5_KIND_MARKERS:
         if (it->count >= 0)
@@ -238,7 +264,7 @@ static void print_run_summary(FILE *o, const cJSON *j, const char *path)
 }
 
 static void print_text(FILE *o, const char *file, const dtx_h5_summary *s, const cJSON *run,
-                       const char *run_path)
+                       const char *run_path, int all_frames)
 {
     const char *v = dtx_h5_attr_find(s->attrs, s->nattrs, "format_version"),
                *by = dtx_h5_attr_find(s->attrs, s->nattrs, "created_by");
@@ -276,7 +302,7 @@ static void print_text(FILE *o, const char *file, const dtx_h5_summary *s, const
         fprintf(o, "%s: %lld\n", s->kinds[k].name, (long long)n);
         for (int64_t i = 0; i < s->nitems; i++)
             if (s->items[i].kind_index == k)
-                print_item(o, &s->items[i]);
+                print_item(o, &s->items[i], all_frames);
     }
     for (int64_t i = 0; i < s->nother; i++)
         fprintf(o, "/%s: not part of the dtx layout\n", s->other[i]);
@@ -344,6 +370,15 @@ static cJSON *item_json(const dtx_h5_item *it, int *oom)
              oom);
         jput(o, "chunk_frames", jcount(it->chunk_frames), oom);
         jput(o, "mesh", it->mesh ? cJSON_CreateString(it->mesh) : cJSON_CreateNull(), oom);
+        if (it->frame_names) {
+            cJSON *names = cJSON_CreateArray();
+            for (int64_t f = 0; names && f < it->nframes; f++)
+                if (!cJSON_AddItemToArray(names, cJSON_CreateString(it->frame_names[f]
+                                                                        ? it->frame_names[f]
+                                                                        : "")))
+                    *oom = 1;
+            jput(o, "frame_names", names, oom);
+        }
         if (it->kind == DTX_H5_KIND_RESULT) {
             const char *job = dtx_h5_attr_find(it->attrs, it->nattrs, "job");
             cJSON *r = cJSON_CreateObject();
@@ -426,7 +461,7 @@ static int print_json(FILE *o, const char *file, const dtx_h5_summary *s, cJSON 
 int dtx_cmd_inspect(int argc, char **argv)
 {
     const char *file = NULL;
-    int as_json = 0, rc = 0;
+    int as_json = 0, all_frames = 0, rc = 0;
     dtx_h5_summary s;
     dtx_error err;
     cJSON *run;
@@ -434,6 +469,8 @@ int dtx_cmd_inspect(int argc, char **argv)
     for (int i = 2; i < argc; i++) {
         if (strcmp(argv[i], "--json") == 0)
             as_json = 1;
+        else if (strcmp(argv[i], "--frames") == 0)
+            all_frames = 1;
         else if (argv[i][0] == '-' && argv[i][1] != '\0') {
             char m[256];
             snprintf(m, sizeof m, "inspect: unknown option %.200s", argv[i]);
@@ -457,7 +494,7 @@ int dtx_cmd_inspect(int argc, char **argv)
         }
         /* print_json took run into its document and freed it. */
     } else {
-        print_text(stdout, file, &s, run, run_path);
+        print_text(stdout, file, &s, run, run_path, all_frames);
         cJSON_Delete(run);
     }
     dtx_h5_summary_free(&s);

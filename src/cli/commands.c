@@ -39,6 +39,8 @@ static const dtx_cli_opt import_sequence_opts[] = {
     {"--compress", "none|gzip", "compression of the positions (default none: gzip saves ~1.4:1)"},
     {"--fps", "F", "the sequence's frame rate, stored and used by every export (default: none "
                    "stored, exports assume 24)"},
+    {"--glob", "PATTERN", "take only the files whose name matches (shell pattern, e.g. 'pose-*.obj')"},
+    {"--exclude", "PATTERN", "leave out the files whose name matches (repeatable)"},
     {NULL, NULL, NULL},
 };
 
@@ -46,11 +48,15 @@ static const dtx_cli_cmd import_sequence = {
     "import sequence",
     "add an animation (a folder or a list of mesh files, one per frame)",
     "dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
-    "                    [--dtype float32|float64] [--compress none|gzip] [--fps F]",
+    "                    [--dtype float32|float64] [--compress none|gzip] [--fps F]\n"
+    "                    [--glob PATTERN] [--exclude PATTERN]...",
     "A folder's mesh files are taken in natural order (cat-2 before cat-10).  Every\n"
-    "frame must have the rest mesh's vertex count and faces.",
+    "frame must have the rest mesh's vertex count and faces; a frame identical to the\n"
+    "rest mesh (a reference pose in the folder) gets a warning.  Frame file names are\n"
+    "stored (dtx inspect lists them).",
     import_sequence_opts,
-    "dtx import sequence poses/ -o cat-lion.h5 --name cat-poses --mesh /meshes/cat",
+    "dtx import sequence poses/ -o cat-lion.h5 --name cat-poses --mesh /meshes/cat\n"
+    "dtx import sequence gallop/ --exclude '*reference*' -o horse.h5 --name gallop --mesh /meshes/horse --fps 30",
     2,
 };
 
@@ -163,14 +169,15 @@ static const dtx_cli_cmd export_ = {
 };
 
 static const dtx_cli_opt inspect_opts[] = {
-    {"--json", NULL, "print the same as JSON"},
+    {"--json", NULL, "print the same as JSON (with every frame file name)"},
+    {"--frames", NULL, "list every frame file name of each sequence (default: the first and last)"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd inspect = {
     "inspect",
     "list what a dtx file holds",
-    "dtx inspect FILE.h5 [--json]",
+    "dtx inspect FILE.h5 [--json] [--frames]",
     "Meshes, sequences, markers, correspondences and results with their provenance,\n"
     "and the run's timings when FILE.h5.summary.json is next to it.  Writes nothing.",
     inspect_opts,

@@ -20,6 +20,7 @@
 #include "options.h"
 
 #include <dirent.h>
+#include <fnmatch.h>
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
@@ -123,7 +124,8 @@ static int is_flag_with_value(const char *a)
 {
     static const char *const names[] = {"-o",       "--name",   "--mesh",    "--dtype",
                                         "--index-base", "--source", "--target",
-                                        "--summary", "--tol", "--compress", "--fps"};
+                                        "--summary", "--tol", "--compress", "--fps",
+                                        "--glob", "--exclude"};
     for (size_t i = 0; i < sizeof names / sizeof *names; i++)
         if (strcmp(a, names[i]) == 0)
             return 1;
@@ -273,7 +275,28 @@ static int has_mesh_ext(const char *name)
 
 /* The frame files: the mesh files of a directory in natural order, or the
  * files given.  Returns a malloc'ed array of malloc'ed paths. */
-static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
+/* Which frame files a sequence import takes: --glob (the file name must
+ * match; default every .obj, .ply and .off file) and every --exclude (the
+ * file name must match none). */
+typedef struct {
+    const char *glob;
+    const char *exclude[64];
+    int nexclude;
+} frame_filter;
+
+static int frame_wanted(const frame_filter *ff, const char *path)
+{
+    const char *base = strrchr(path, '/');
+    base = base ? base + 1 : path;
+    if (ff->glob && fnmatch(ff->glob, base, 0) != 0)
+        return 0;
+    for (int i = 0; i < ff->nexclude; i++)
+        if (fnmatch(ff->exclude[i], base, 0) == 0)
+            return 0;
+    return 1;
+}
+
+static char **frame_list(char **pos, int npos, const frame_filter *ff, int *n, dtx_error *err)
 {
     struct stat sb;
     char **list = NULL;
@@ -287,7 +310,7 @@ static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
             return NULL;
         }
         while ((e = readdir(d))) {
-            if (e->d_name[0] == '.' || !has_mesh_ext(e->d_name))
+            if (e->d_name[0] == '.' || !has_mesh_ext(e->d_name) || !frame_wanted(ff, e->d_name))
                 continue;
             if (*n == cap) {
                 char **nl;
@@ -306,7 +329,8 @@ static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
         closedir(d);
         if (*n == 0) {
             free(list);
-            dtx_seterr(err, DTX_EINVAL, "%s: no .obj, .ply or .off files", pos[0]);
+            dtx_seterr(err, DTX_EINVAL, "%s: no .obj, .ply or .off files%s", pos[0],
+                       ff->glob || ff->nexclude ? " left by --glob and --exclude" : "");
             return NULL;
         }
         qsort(list, (size_t)*n, sizeof *list, natural_cmp);
@@ -328,9 +352,14 @@ static char **frame_list(char **pos, int npos, int *n, dtx_error *err)
             free(list);
             return NULL;
         }
-        list[i] = strdup(pos[i]);
+        if (frame_wanted(ff, pos[i]))
+            list[(*n)++] = strdup(pos[i]);
     }
-    *n = npos;
+    if (*n == 0) {
+        free(list);
+        dtx_seterr(err, DTX_EINVAL, "no frame file left by --glob and --exclude");
+        return NULL;
+    }
     return list;
 }
 
@@ -361,6 +390,14 @@ static dtx_status read_frame(const char *path, int i, const dtx_mesh *rest, cons
                         path, i, mesh, (int)fr.nf, (int)rest->nf);
     else if (dst)
         memcpy(dst, fr.V, (size_t)rest->nv * 3 * sizeof *dst);
+    /* A folder of poses often holds the reference pose too, which would
+     * become an extra frame. */
+    if (st == DTX_OK && !quiet &&
+        memcmp(fr.V, rest->V, (size_t)rest->nv * 3 * sizeof *fr.V) == 0)
+        fprintf(stderr,
+                "dtx: warning: %s: frame %d is identical to the rest mesh %s (the reference "
+                "pose? --exclude '%s' leaves it out)\n",
+                path, i, mesh, strrchr(path, '/') ? strrchr(path, '/') + 1 : path);
     dtx_mesh_free(&fr);
     return st;
 }
@@ -374,6 +411,7 @@ static int cmd_import_sequence(int argc, char **argv)
                *compress = opt(argc, argv, "--compress"), *fps_s = opt(argc, argv, "--fps");
     char **files = NULL, group[DTX_H5_PATH_MAX];
     double fps = 0.0; /* 0: not given, none stored (readers assume 24) */
+    frame_filter ff;
     dtx_error err, e2;
     dtx_status st;
     dtx_mesh rest;
@@ -406,7 +444,15 @@ static int cmd_import_sequence(int argc, char **argv)
         return fail(&err);
     memset(&rest, 0, sizeof rest);
     memset(&seq, 0, sizeof seq);
-    files = frame_list(pos, npos, &nframes, &err);
+    memset(&ff, 0, sizeof ff);
+    ff.glob = opt(argc, argv, "--glob");
+    for (int i = 3; i + 1 < argc; i++)
+        if (strcmp(argv[i], "--exclude") == 0) {
+            if (ff.nexclude == (int)(sizeof ff.exclude / sizeof *ff.exclude))
+                return usage("--exclude given more than 64 times");
+            ff.exclude[ff.nexclude++] = argv[++i];
+        }
+    files = frame_list(pos, npos, &ff, &nframes, &err);
     if (!files)
         return fail(&err);
     snprintf(group, sizeof group, "/sequences/%s", name);

@@ -300,6 +300,9 @@ static void sequence_item(ictx *c, dtx_h5_item *it)
     it->nv = seq.nv;
     it->is_f64 = seq.is_f64;
     it->chunk_frames = seq.chunk_frames;
+    /* Frame names are optional (sequences written by other programs). */
+    if (dtx_h5_read_frame_names(&seq, &it->frame_names, &e) != DTX_OK)
+        it->frame_names = NULL;
     dtx_h5_seq_close(&seq);
 }
 
@@ -629,6 +632,8 @@ void dtx_h5_summary_free(dtx_h5_summary *s)
         free(it->problem);
         free(it->mesh);
         free(it->datasets);
+        if (it->frame_names)
+            dtx_h5_free_strings(&it->frame_names, it->nframes);
         free_attrs(it->attrs, it->nattrs);
     }
     free(s->items);

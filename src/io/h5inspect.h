@@ -68,6 +68,9 @@ typedef struct {
     int64_t nframes, frames_done;
     int is_f64, chunk_frames;
     char *mesh;
+    /* sequences: the frames' file names as imported (nframes strings), or
+     * NULL when the sequence has none */
+    char **frame_names;
     /* results: residuals of the frames done (NaN when none) */
     double residual_min, residual_max, residual_mean;
     /* markers: markers; correspondences: triangle pairs; other kinds: the
