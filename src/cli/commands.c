@@ -73,10 +73,10 @@ static const dtx_cli_opt import_markers_opts[] = {
 static const dtx_cli_cmd import_markers = {
     "import markers",
     "add source/target marker pairs from a CSV file",
-    "dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
+    "dtx import markers FILE.csv [--index-base 0|1] -o OUT.h5 --name NAME\n"
     "                   [--source /meshes/A] [--target /meshes/B]",
     "The CSV has rows source_vertex,target_vertex[,label].  The index base is always\n"
-    "explicit: --index-base or a '# index_base: N' line.",
+    "explicit: --index-base or a '# index_base: N' line in the file (both: they must agree).",
     import_markers_opts,
     "dtx import markers markers.csv --index-base 0 -o cat-lion.h5 --name cat-lion \\\n"
     "    --source /meshes/cat --target /meshes/lion",

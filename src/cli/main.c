@@ -559,16 +559,18 @@ static int cmd_import_markers(int argc, char **argv)
     dtx_status st;
     dtx_markers mk;
     hid_t f = H5I_INVALID_HID;
-    int created = 0, ib;
+    int created = 0, ib = -1;
     char group[DTX_H5_PATH_MAX];
-    if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name || !base)
-        return usage("import markers needs one CSV file, --index-base 0|1, -o OUT.h5 and "
-                     "--name NAME");
-    if (strcmp(base, "0") == 0)
+    if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
+        return usage("import markers needs one CSV file, -o OUT.h5 and --name NAME (and "
+                     "--index-base 0|1 unless the file has a '# index_base: 0|1' line)");
+    /* Without --index-base the file's `# index_base:` line decides (-1), and
+     * a file without one is an error; with both they must agree. */
+    if (base && strcmp(base, "0") == 0)
         ib = 0;
-    else if (strcmp(base, "1") == 0)
+    else if (base && strcmp(base, "1") == 0)
         ib = 1;
-    else
+    else if (base)
         return usage("--index-base must be 0 or 1");
     st = dtx_markers_read_csv(pos[0], ib, &mk, &err);
     if (st != DTX_OK)

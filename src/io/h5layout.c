@@ -11,6 +11,7 @@
 #define _GNU_SOURCE 1 /* fallocate */
 #include "h5layout.h"
 #include "h5mesh_attrs.h"
+#include "file_util.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -466,6 +467,10 @@ dtx_status dtx_h5_open(const char *path, MPI_Comm comm, int writable, hid_t *fil
         return st;
     if (access(path, writable ? R_OK | W_OK : R_OK) != 0)
         return h5err_name(err, DTX_EIO, path, 0, "cannot open: %s", strerror(errno));
+    /* H5Fis_hdf5 and H5Fopen block forever on a FIFO: refuse anything but a
+     * regular file first. */
+    if ((st = dtx_file_check_regular(path, err)) != DTX_OK)
+        return st;
     is = H5Fis_hdf5(path);
     if (is == 0)
         return h5err_name(err, DTX_EFORMAT, path, 0, "not an HDF5 file");

@@ -21,6 +21,7 @@
 #include "springs.h"
 
 #include "h5layout.h"
+#include "file_util.h"
 #include "json_schema.h"
 
 #include <cjson/cJSON.h>
@@ -739,6 +740,9 @@ static dtx_status check_input_file(fillctx *f, const char *ptr, const char *path
     }
     if (S_ISDIR(sb.st_mode))
         return job_err(f->err, DTX_EJOB, f->name, ptr, "is a directory, not a file: %s", path);
+    if (!S_ISREG(sb.st_mode)) /* a FIFO would block the run when it is read */
+        return job_err(f->err, DTX_EJOB, f->name, ptr, "not a regular file (%s): %s",
+                       dtx_file_kind(sb.st_mode), path);
     if (access(path, R_OK) != 0)
         return job_err(f->err, DTX_EJOB, f->name, ptr, "cannot read %s: %s", path,
                        strerror(errno));
@@ -917,10 +921,33 @@ dtx_status dtx_job_parse(const char *text, size_t len, const char *name, const c
             goto fail;
         }
     }
+    /* cJSON gives up past its own nesting limit with what reads as a plain
+     * syntax error: say what is wrong, and where, first. */
+    {
+        size_t deep = dtx_json_find_too_deep(text, len, DTX_JSON_MAX_DEPTH), line, col;
+        if (deep != (size_t)-1) {
+            dtx_json_line_col(text, len, deep, &line, &col);
+            st = dtx_seterr(err, DTX_EPARSE, "%s:%zu:%zu: JSON nesting deeper than %d levels",
+                            name, line, col, DTX_JSON_MAX_DEPTH);
+            goto fail;
+        }
+    }
     doc = cJSON_ParseWithLengthOpts(text, len, &end, 0);
     if (!doc) {
         st = syntax_error(name, text, len, end ? (size_t)(end - text) : len, NULL, err);
         goto fail;
+    }
+    /* cJSON decodes \u0000 to a NUL byte and the C string ends there:
+     * "sp04\u0000x" would compare equal to "sp04". */
+    {
+        char ptr[256];
+        if (dtx_json_find_nul_escape(text, len, ptr, sizeof ptr) != (size_t)-1) {
+            st = dtx_seterr(err, DTX_EJOB,
+                            "%s: at %s: a string holding \\u0000 (a NUL character) is not "
+                            "allowed",
+                            name, ptr[0] ? ptr : "the top level");
+            goto fail;
+        }
     }
     for (i = (size_t)(end - text); i < len; i++)
         if (!(text[i] == ' ' || text[i] == '\t' || text[i] == '\n' || text[i] == '\r')) {
@@ -978,10 +1005,9 @@ fail:
 
 dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err)
 {
-    FILE *fp;
     char *text = NULL, *dir = NULL;
     const char *slash;
-    size_t len = 0, cap = 0;
+    size_t len = 0;
     dtx_status st;
 
     if (!job)
@@ -990,39 +1016,11 @@ dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err)
     if (!path)
         return dtx_seterr(err, DTX_EINVAL, "dtx_job_load: path is NULL");
 
-    fp = fopen(path, "rb");
-    if (!fp)
-        return dtx_seterr(err, DTX_EIO, "%s: cannot open the job file: %s", path,
-                          strerror(errno));
-    for (;;) {
-        size_t got;
-        if (len == cap) {
-            char *nt;
-            if (cap >= JOB_MAX_BYTES) {
-                st = dtx_seterr(err, DTX_EJOB, "%s: job file larger than %u bytes", path,
-                                JOB_MAX_BYTES);
-                goto fail;
-            }
-            cap = cap ? 2 * cap : 4096;
-            nt = realloc(text, cap);
-            if (!nt) {
-                st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", path);
-                goto fail;
-            }
-            text = nt;
-        }
-        got = fread(text + len, 1, cap - len, fp);
-        len += got;
-        if (got == 0)
-            break;
-    }
-    if (ferror(fp)) {
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot read the job file: %s", path,
-                        strerror(errno));
-        goto fail;
-    }
-    fclose(fp);
-    fp = NULL;
+    /* Only a regular file, and its size checked before reading: a FIFO
+     * would block and a device such as /dev/zero would never end. */
+    st = dtx_file_read_regular(path, JOB_MAX_BYTES, &text, &len, err);
+    if (st != DTX_OK)
+        return st;
 
     /* Relative paths in the job are relative to the job file's directory. */
     slash = strrchr(path, '/');
@@ -1042,8 +1040,6 @@ dtx_status dtx_job_load(const char *path, dtx_job *job, dtx_error *err)
     return st;
 
 fail:
-    if (fp)
-        fclose(fp);
     free(text);
     return st;
 }

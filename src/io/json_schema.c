@@ -1077,3 +1077,142 @@ dtx_status dtx_json_validate(const cJSON *schema, const cJSON *doc, char *msg, s
     }
     return st;
 }
+
+/* ------------------------------------------------------------------ */
+/* Checks on the JSON text                                              */
+/* ------------------------------------------------------------------ */
+
+/* The offset just past the string whose opening quote is at text[i], or
+ * len when it is not closed; *nul is set when it holds \u0000. */
+static size_t skip_string(const char *text, size_t len, size_t i, int *nul)
+{
+    *nul = 0;
+    for (i++; i < len; i++) {
+        if (text[i] == '"')
+            return i + 1;
+        if (text[i] == '\\') {
+            if (i + 5 < len && text[i + 1] == 'u' && memcmp(text + i + 2, "0000", 4) == 0)
+                *nul = 1;
+            i++; /* the escaped character (a \uXXXX's digits are plain) */
+        }
+    }
+    return len;
+}
+
+size_t dtx_json_find_too_deep(const char *text, size_t len, int max_depth)
+{
+    long depth = 0;
+    int nul;
+    for (size_t i = 0; i < len;) {
+        char c = text[i];
+        if (c == '"') {
+            i = skip_string(text, len, i, &nul);
+            continue;
+        }
+        if (c == '[' || c == '{') {
+            if (++depth > max_depth)
+                return i;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            depth--;
+        }
+        i++;
+    }
+    return (size_t)-1;
+}
+
+/* Copies the member name between the quotes at text[b] and text[e - 1]
+ * into out (outsz bytes) for a JSON pointer: the simple escapes undone,
+ * \uXXXX kept as written, truncated if needed. */
+static void copy_key(const char *text, size_t b, size_t e, char *out, size_t outsz)
+{
+    size_t k = 0;
+    for (size_t i = b + 1; i + 1 < e && k + 1 < outsz; i++) {
+        char c = text[i];
+        if (c == '\\' && i + 2 < e) {
+            char x = text[++i];
+            c = x == 'n' ? '\n' : x == 't' ? '\t' : x == 'r' ? '\r' : x == 'b' ? '\b'
+                : x == 'f' ? '\f' : x == 'u' ? '\\' : x;
+            if (x == 'u')
+                i--; /* keep "\u" and the digits as they are */
+        }
+        out[k++] = c;
+    }
+    out[k] = '\0';
+}
+
+size_t dtx_json_find_nul_escape(const char *text, size_t len, char *ptr, size_t ptrsize)
+{
+    /* A stack of the open containers: whether each is an array, its
+     * current element index and the length of ptr at its start.  Levels
+     * beyond the stack are counted but not named (dtx_job_parse refuses
+     * them earlier anyway). */
+    enum { STACK = DTX_JSON_MAX_DEPTH + 1 };
+    struct {
+        int array;
+        long index;
+        size_t base;
+    } st[STACK];
+    long depth = 0;
+    int want_key = 0, nul;
+    char buf[512] = "", key[256];
+
+    for (size_t i = 0; i < len;) {
+        char c = text[i];
+        if (c == '"') {
+            size_t e = skip_string(text, len, i, &nul);
+            if (want_key && depth > 0 && depth <= STACK) {
+                buf[st[depth - 1].base] = '\0';
+                copy_key(text, i, e, key, sizeof key);
+                dtx_json_pointer_append(buf, sizeof buf, key);
+            }
+            if (nul) {
+                if (ptr && ptrsize > 0)
+                    snprintf(ptr, ptrsize, "%s", buf);
+                return i;
+            }
+            want_key = 0;
+            i = e;
+            continue;
+        }
+        if (c == '{' || c == '[') {
+            if (depth < STACK) {
+                st[depth].array = c == '[';
+                st[depth].index = 0;
+                st[depth].base = strlen(buf);
+                if (c == '[')
+                    snprintf(buf + strlen(buf), sizeof buf - strlen(buf), "/0");
+            }
+            depth++;
+            want_key = c == '{';
+        } else if (c == '}' || c == ']') {
+            if (depth > 0 && --depth < STACK)
+                buf[st[depth].base] = '\0';
+            want_key = 0;
+        } else if (c == ',' && depth > 0 && depth <= STACK) {
+            size_t b = st[depth - 1].base;
+            buf[b] = '\0';
+            if (st[depth - 1].array)
+                snprintf(buf + b, sizeof buf - b, "/%ld", ++st[depth - 1].index);
+            else
+                want_key = 1;
+        }
+        i++;
+    }
+    return (size_t)-1;
+}
+
+void dtx_json_line_col(const char *text, size_t len, size_t pos, size_t *line, size_t *col)
+{
+    *line = 1;
+    *col = 1;
+    if (pos > len)
+        pos = len;
+    for (size_t i = 0; i < pos; i++) {
+        if (text[i] == '\n' || (text[i] == '\r' && (i + 1 >= len || text[i + 1] != '\n'))) {
+            (*line)++;
+            *col = 1;
+        } else if (text[i] != '\r') {
+            (*col)++;
+        }
+    }
+}

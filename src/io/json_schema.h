@@ -64,4 +64,32 @@ dtx_status dtx_json_validate(const cJSON *schema, const cJSON *doc, char *msg, s
  * (bufsize bytes), truncating if needed.  Used to name places in messages. */
 void dtx_json_pointer_append(char *buf, size_t bufsize, const char *key);
 
+/* ------------------------------------------------------------------
+ * Checks on the JSON text itself, for what cJSON cannot report well.
+ */
+
+/* The deepest nesting of arrays and objects a dtx document may have.  dtx's
+ * own documents nest a handful of levels; the limit is far below cJSON's
+ * own (CJSON_NESTING_LIMIT), whose failure reads as a plain syntax error. */
+#define DTX_JSON_MAX_DEPTH 64
+
+/* The offset in [text, text + len) of the first '[' or '{' (outside
+ * strings) that opens level max_depth + 1, or (size_t)-1 when the text
+ * nests no deeper than max_depth.  Works on any text: it only follows
+ * strings and brackets, so it can run before the text is parsed. */
+size_t dtx_json_find_too_deep(const char *text, size_t len, int max_depth);
+
+/* In text that cJSON has parsed successfully, the offset of the first
+ * string (a member name or a value) holding the escape \u0000, or
+ * (size_t)-1 when there is none.  cJSON decodes it to a NUL byte and the C
+ * string then ends there ("sp04\u0000x" would read as "sp04"), so dtx
+ * refuses such strings.  When found, ptr (ptrsize bytes) receives the JSON
+ * pointer of the value, or of the member whose name holds it ("" for the
+ * top level), truncated if needed. */
+size_t dtx_json_find_nul_escape(const char *text, size_t len, char *ptr, size_t ptrsize);
+
+/* The 1-based line and column of offset pos in text (lines end at "\n",
+ * "\r\n" or a lone "\r"; columns count bytes). */
+void dtx_json_line_col(const char *text, size_t len, size_t pos, size_t *line, size_t *col);
+
 #endif /* DTX_JSON_SCHEMA_H */

@@ -99,7 +99,7 @@ dtx_status dtx_markers_parse_csv(const char *name, const char *buf, size_t len, 
     dtx_lines it;
     const char *b, *e;
     int file_base = -1, base, seen_first = 0;
-    long base_line = 0, long_line;
+    long base_line = 0;
     int64_t ndata = 0;
     int32_t m = 0;
     dtx_status st;
@@ -112,10 +112,6 @@ dtx_status dtx_markers_parse_csv(const char *name, const char *buf, size_t len, 
                           name, index_base);
     if (dtx_has_nul(buf, len))
         return dtx_seterr(err, DTX_EPARSE, "%s: not a text file (contains NUL bytes)", name);
-    long_line = dtx_find_long_line(buf, len, DTX_MESHFILE_MAX_LINE);
-    if (long_line != 0)
-        return dtx_seterr(err, DTX_EPARSE, "%s:%ld: line too long (the limit is %zu bytes)", name,
-                          long_line, DTX_MESHFILE_MAX_LINE);
 
     /* ---- pass 1: the index_base directive and the number of data lines */
     dtx_lines_init(&it, buf, len);
@@ -125,6 +121,12 @@ dtx_status dtx_markers_parse_csv(const char *name, const char *buf, size_t len, 
         if (b == e)
             continue;
         if (*b != '#') {
+            /* A data line holds two indices and a label: a megabyte of it
+             * is not a marker (comment lines may be of any length). */
+            if ((size_t)(e - b) > DTX_MESHFILE_MAX_LINE)
+                return dtx_seterr(err, DTX_EPARSE,
+                                  "%s:%ld: line too long (%zu bytes; the limit is %zu)", name,
+                                  it.line, (size_t)(e - b), DTX_MESHFILE_MAX_LINE);
             ndata++;
             continue;
         }

@@ -7,8 +7,12 @@
  * base the file format uses.  Polygons with more than three vertices are
  * fan-triangulated (v0 v1 v2, v0 v2 v3, ...) and reported by ONE warning per
  * file.  Files are read whole into memory and parsed in place; lines of any
- * length are handled safely (lines over DTX_MESHFILE_MAX_LINE bytes are an
- * error), and NUL bytes in a text file are an error ("not a text file").
+ * length are handled safely and may end in LF, CRLF or a lone CR.  Comment
+ * lines may be of any length; a line that holds a record of a few fields
+ * (see DTX_MESHFILE_MAX_LINE) is an error beyond that many bytes.  NUL bytes
+ * in a text file are an error ("not a text file").  Only regular files are
+ * read: a FIFO or a device is refused before reading ("x.obj: not a regular
+ * file (a FIFO)"). 
  *
  * The readers check what a parser can check: the syntax, counts against the
  * file size before anything is allocated, face indices against the vertex
@@ -42,7 +46,16 @@
 #include <stddef.h>
 #include <stdint.h>
 
-/* Lines longer than this many bytes (end of line excluded) are rejected. */
+/* The longest record line accepted, in bytes (end of line excluded).  It
+ * applies only to lines that hold a fixed handful of fields: an OBJ `v`
+ * line, the OFF header, counts and vertex lines, a non-comment PLY header
+ * line and a marker CSV data line.  Such a line holds a few numbers (and a
+ * marker label), so a megabyte of it means the file is not what its name
+ * says (binary data without NUL bytes, a wrong file), and saying so names
+ * the problem better than a parse error somewhere inside it; it also bounds
+ * the label each marker may carry.  Comment lines, lines a reader skips and
+ * face lines (a polygon's line grows with its vertex count) may be of any
+ * length: the readers never copy a whole line. */
 #define DTX_MESHFILE_MAX_LINE ((size_t)1 << 20)
 
 /* ------------------------------------------------------------ warnings */

@@ -2,83 +2,19 @@
  * mesh and marker readers. */
 #include "meshfile_util.h"
 
+#include "file_util.h"
+
 #include <errno.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 
 dtx_status dtx_file_read_all(const char *path, char **buf, size_t *len, dtx_error *err)
 {
-    FILE *fp = NULL;
-    char *b = NULL;
-    size_t cap, n = 0;
-    struct stat sb;
-    dtx_status st;
-
-    *buf = NULL;
-    *len = 0;
-    fp = fopen(path, "rb");
-    if (!fp)
-        return dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(errno));
-    if (fstat(fileno(fp), &sb) != 0) {
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot stat: %s", path, strerror(errno));
-        goto fail;
-    }
-    if (S_ISDIR(sb.st_mode)) {
-        st = dtx_seterr(err, DTX_EIO, "%s: is a directory", path);
-        goto fail;
-    }
-    /* Regular files are read in one go; pipes and the like grow the buffer. */
-    if (S_ISREG(sb.st_mode) && (uintmax_t)sb.st_size < SIZE_MAX - 1)
-        cap = (size_t)sb.st_size + 1;
-    else
-        cap = 65536;
-    b = malloc(cap);
-    if (!b) {
-        st = dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %zu bytes to read it", path, cap);
-        goto fail;
-    }
-    for (;;) {
-        size_t got;
-        if (n == cap - 1) {
-            /* Full (the file grew, or it is not a regular file): double. */
-            char *nb;
-            if (cap > SIZE_MAX / 2) {
-                st = dtx_seterr(err, DTX_ENOMEM, "%s: file too large", path);
-                goto fail;
-            }
-            nb = realloc(b, cap * 2);
-            if (!nb) {
-                st = dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %zu bytes to read it", path,
-                                cap * 2);
-                goto fail;
-            }
-            b = nb;
-            cap *= 2;
-        }
-        got = fread(b + n, 1, cap - 1 - n, fp);
-        n += got;
-        if (got == 0) {
-            if (ferror(fp)) {
-                st = dtx_seterr(err, DTX_EIO, "%s: read error: %s", path, strerror(errno));
-                goto fail;
-            }
-            break;
-        }
-    }
-    fclose(fp);
-    b[n] = '\0';
-    *buf = b;
-    *len = n;
-    return DTX_OK;
-
-fail:
-    free(b);
-    if (fp)
-        fclose(fp);
-    return st;
+    /* Only regular files: a FIFO would block and /dev/zero would grow the
+     * buffer until the memory runs out (file_util.h). */
+    return dtx_file_read_regular(path, SIZE_MAX, buf, len, err);
 }
 
 void dtx_warnf(const dtx_warner *w, const char *fmt, ...)
@@ -95,17 +31,6 @@ void dtx_warnf(const dtx_warner *w, const char *fmt, ...)
 
 int dtx_has_nul(const char *buf, size_t len) { return len > 0 && memchr(buf, '\0', len) != NULL; }
 
-long dtx_find_long_line(const char *buf, size_t len, size_t max)
-{
-    dtx_lines it;
-    const char *b, *e;
-    dtx_lines_init(&it, buf, len);
-    while (dtx_lines_next(&it, &b, &e))
-        if ((size_t)(e - b) > max)
-            return it.line;
-    return 0;
-}
-
 void dtx_lines_init(dtx_lines *it, const char *buf, size_t len)
 {
     it->cur = buf;
@@ -117,20 +42,20 @@ void dtx_lines_init(dtx_lines *it, const char *buf, size_t len)
 
 int dtx_lines_next(dtx_lines *it, const char **b, const char **e)
 {
-    const char *nl;
-    if (it->cur >= it->end)
+    const char *p = it->cur;
+    if (p >= it->end)
         return 0;
-    *b = it->cur;
-    nl = memchr(it->cur, '\n', (size_t)(it->end - it->cur));
-    if (nl) {
-        *e = nl;
-        it->cur = nl + 1;
-    } else {
-        *e = it->end;
-        it->cur = it->end;
-    }
-    if (*e > *b && (*e)[-1] == '\r')
-        (*e)--;
+    *b = p;
+    /* A line ends at "\n", "\r\n" or a lone "\r" (classic Mac OS), so the
+     * three conventions all give the same lines. */
+    while (p < it->end && *p != '\n' && *p != '\r')
+        p++;
+    *e = p;
+    if (p < it->end && *p == '\r')
+        p++;
+    if (p < it->end && *p == '\n')
+        p++;
+    it->cur = p;
     it->line++;
     return 1;
 }

@@ -21,8 +21,10 @@
 
 /* Reads the whole file at path into a new buffer *buf (malloc'd, freed by
  * the caller with free) of *len bytes, plus one NUL byte at (*buf)[*len].
- * DTX_EIO with "path: cannot open: reason" and the like on failure, in which
- * case *buf is NULL. */
+ * Only a regular file is read: a FIFO, a device or a directory is DTX_EIO
+ * with "path: not a regular file (a FIFO)" before anything is read
+ * (dtx_file_read_regular in file_util.h).  DTX_EIO with "path: cannot open:
+ * reason" and the like on failure, in which case *buf is NULL. */
 dtx_status dtx_file_read_all(const char *path, char **buf, size_t *len, dtx_error *err);
 
 /* Appends triangle (a, b, c) to the growable array *F of *cap triangles of
@@ -50,13 +52,10 @@ void dtx_warnf(const dtx_warner *w, const char *fmt, ...)
 /* 1 if the len bytes at buf contain a NUL byte. */
 int dtx_has_nul(const char *buf, size_t len);
 
-/* The 1-based number of the first line of [buf, buf + len) longer than max
- * bytes (end of line excluded), or 0 when there is none. */
-long dtx_find_long_line(const char *buf, size_t len, size_t max);
-
-/* Line iterator over [begin, end).  Lines end at "\n"; one '\r' before it
- * (or before the end of the buffer) is dropped.  A UTF-8 byte-order mark at
- * the start of the buffer is skipped. */
+/* Line iterator over [begin, end).  Lines end at "\n", "\r\n" or a lone
+ * "\r" (Unix, Windows and classic Mac OS line ends, mixed freely); the end
+ * of line is not part of the line.  A UTF-8 byte-order mark at the start of
+ * the buffer is skipped. */
 typedef struct {
     const char *cur; /* start of the next line */
     const char *end; /* end of the buffer */

@@ -72,14 +72,16 @@ static dtx_status obj_count(const char *name, const char *buf, size_t len, int64
     while (dtx_lines_next(&it, &b, &e)) {
         const char *p = b, *k;
         size_t n;
-        if ((size_t)(e - b) > DTX_MESHFILE_MAX_LINE)
-            return dtx_seterr(err, DTX_EPARSE,
-                              "%s:%ld: line too long (%zu bytes; the limit is %zu)", name, it.line,
-                              (size_t)(e - b), DTX_MESHFILE_MAX_LINE);
         k = dtx_next_token(&p, e, &n);
         if (!k || n != 1)
             continue;
         if (k[0] == 'v') {
+            /* Only vertex lines have a length limit (DTX_MESHFILE_MAX_LINE):
+             * comments and skipped lines may be of any length. */
+            if ((size_t)(e - b) > DTX_MESHFILE_MAX_LINE)
+                return dtx_seterr(err, DTX_EPARSE,
+                                  "%s:%ld: vertex line too long (%zu bytes; the limit is %zu)",
+                                  name, it.line, (size_t)(e - b), DTX_MESHFILE_MAX_LINE);
             (*nv)++;
         } else if (k[0] == 'f') {
             int64_t c = 0;

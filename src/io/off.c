@@ -22,6 +22,19 @@ static int content_line(dtx_lines *it, const char **b, const char **e)
     return 0;
 }
 
+/* 1 (with a message) when the record line [b, e) of it, comment cut off,
+ * is longer than DTX_MESHFILE_MAX_LINE: the header, counts and vertex
+ * lines hold a few numbers each (face lines and comments have no limit). */
+static int too_long(const char *name, const dtx_lines *it, const char *b, const char *e,
+                    dtx_error *err)
+{
+    if ((size_t)(e - b) <= DTX_MESHFILE_MAX_LINE)
+        return 0;
+    dtx_seterr(err, DTX_EPARSE, "%s:%ld: line too long (%zu bytes; the limit is %zu)", name,
+               it->line, (size_t)(e - b), DTX_MESHFILE_MAX_LINE);
+    return 1;
+}
+
 /* Recognises the header keyword: [ST][C][N]OFF.  Returns 1 for a supported
  * one, 0 for something else, -1 for an unsupported variant (4OFF, nOFF). */
 static int off_keyword(const char *t, size_t n)
@@ -49,7 +62,7 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
     size_t n, fcap;
     int64_t nv = 0, nf = 0, nt = 0, npoly = 0, cnt[3];
     int ncnt = 0, kw;
-    long poly_line = 0, long_line;
+    long poly_line = 0;
     double *V = NULL;
     int32_t *F = NULL;
     char show[48];
@@ -58,15 +71,13 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
     memset(out, 0, sizeof *out);
     if (dtx_has_nul(buf, len))
         return dtx_seterr(err, DTX_EPARSE, "%s: not a text file (contains NUL bytes)", name);
-    long_line = dtx_find_long_line(buf, len, DTX_MESHFILE_MAX_LINE);
-    if (long_line != 0)
-        return dtx_seterr(err, DTX_EPARSE, "%s:%ld: line too long (the limit is %zu bytes)", name,
-                          long_line, DTX_MESHFILE_MAX_LINE);
     dtx_lines_init(&it, buf, len);
 
     /* ---- header keyword, then the counts (possibly on the same line) */
     if (!content_line(&it, &b, &e))
         return dtx_seterr(err, DTX_EPARSE, "%s: empty file", name);
+    if (too_long(name, &it, b, e, err))
+        return DTX_EPARSE;
     p = b;
     t = dtx_next_token(&p, e, &n);
     kw = off_keyword(t, n);
@@ -81,6 +92,8 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
     if (!t) {
         if (!content_line(&it, &b, &e))
             return dtx_seterr(err, DTX_EPARSE, "%s: no counts line after the OFF header", name);
+        if (too_long(name, &it, b, e, err))
+            return DTX_EPARSE;
         p = b;
         t = dtx_next_token(&p, e, &n);
     }
@@ -137,6 +150,10 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
             st = dtx_seterr(err, DTX_EPARSE,
                             "%s: file ends after %lld of %lld vertices (truncated?)", name,
                             (long long)i, (long long)nv);
+            goto fail;
+        }
+        if (too_long(name, &it, b, e, err)) {
+            st = DTX_EPARSE;
             goto fail;
         }
         p = b;

@@ -67,7 +67,8 @@ static const char *ascii_token(ply_in *in, size_t *n)
 {
     const char *b = (const char *)in->p, *p = b + in->pos, *e = b + in->len, *s;
     while (p < e && (dtx_is_blank(*p) || *p == '\n')) {
-        if (*p == '\n')
+        /* Lines end at "\n", "\r\n" or a lone "\r". */
+        if (*p == '\n' || (*p == '\r' && (p + 1 == e || p[1] != '\n')))
             in->line++;
         p++;
     }
@@ -226,7 +227,7 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
     dtx_lines it;
     const char *b, *e, *p, *t;
     size_t n, ecap = 0, pcap = 0;
-    int have_format = 0, ended = 0;
+    int have_format = 0, ended = 0, cr_only;
     char show[48];
 
     memset(h, 0, sizeof *h);
@@ -234,15 +235,20 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
     if (!dtx_lines_next(&it, &b, &e) || (size_t)(e - b) != 3 || memcmp(b, "ply", 3) != 0)
         return dtx_seterr(err, DTX_EPARSE, "%s: not a PLY file (the first line is not 'ply')",
                           name);
+    /* The header's line ends (LF, CRLF or a lone CR) are those of its first
+     * line; see data_start below. */
+    cr_only = e < it.end && *e == '\r' && (e + 1 == it.end || e[1] != '\n');
     while (!ended && dtx_lines_next(&it, &b, &e)) {
-        if ((size_t)(e - b) > DTX_MESHFILE_MAX_LINE)
-            return dtx_seterr(err, DTX_EPARSE, "%s:%ld: header line too long", name, it.line);
         if (dtx_has_nul(b, (size_t)(e - b)))
             return dtx_seterr(err, DTX_EPARSE, "%s:%ld: NUL byte in the header", name, it.line);
         p = b;
         t = dtx_next_token(&p, e, &n);
         if (!t || tok_is(t, n, "comment") || tok_is(t, n, "obj_info"))
-            continue;
+            continue; /* comments may be of any length */
+        if ((size_t)(e - b) > DTX_MESHFILE_MAX_LINE)
+            return dtx_seterr(err, DTX_EPARSE,
+                              "%s:%ld: header line too long (%zu bytes; the limit is %zu)", name,
+                              it.line, (size_t)(e - b), DTX_MESHFILE_MAX_LINE);
         if (tok_is(t, n, "end_header")) {
             ended = 1;
         } else if (tok_is(t, n, "format")) {
@@ -256,6 +262,18 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
             else
                 return dtx_seterr(err, DTX_EPARSE, "%s:%ld: unknown PLY format '%s'", name, it.line,
                                   t ? dtx_show_token(t, n, show, sizeof show) : "");
+            /* 1.0 is the only PLY version there is: another one may mean
+             * another layout, so it is not read as if it were 1.0. */
+            t = dtx_next_token(&p, e, &n);
+            if (!tok_is(t, n, "1.0"))
+                return dtx_seterr(err, DTX_EPARSE,
+                                  "%s:%ld: PLY version %s%s%s is not supported (only 1.0)", name,
+                                  it.line, t ? "'" : "(none given)",
+                                  t ? dtx_show_token(t, n, show, sizeof show) : "", t ? "'" : "");
+            if (dtx_next_token(&p, e, &n))
+                return dtx_seterr(err, DTX_EPARSE,
+                                  "%s:%ld: unexpected text after 'format FORMAT 1.0'", name,
+                                  it.line);
             have_format = 1;
         } else if (tok_is(t, n, "element")) {
             ply_elem *el;
@@ -339,7 +357,20 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
         return dtx_seterr(err, DTX_EPARSE, "%s: the header has no end_header line", name);
     if (!have_format)
         return dtx_seterr(err, DTX_EPARSE, "%s: the header has no format line", name);
-    h->data_start = (size_t)(it.cur - buf);
+    /* The data start right after end_header's line end.  With lone-CR line
+     * ends a "\n" after that CR is already data (a binary body may start
+     * with the byte 0x0A), so the iterator's "\r\n" is not trusted here. */
+    {
+        const char *d = e;
+        if (d < it.end && *d == '\r') {
+            d++;
+            if (!cr_only && d < it.end && *d == '\n')
+                d++;
+        } else if (d < it.end && *d == '\n') {
+            d++;
+        }
+        h->data_start = (size_t)(d - buf);
+    }
     h->data_line = it.line + 1;
     return DTX_OK;
 }

@@ -478,6 +478,84 @@ reject mk-malformed mk3.h5 "mal\.csv:2: target vertex 'x' is not an integer" \
 printf 'source_vertex,target_vertex\n' > none.csv
 reject mk-empty mk3.h5 'none\.csv: no markers' "$DTX" import markers none.csv --index-base 0 -o mk3.h5 --name m
 
+# ------------------------------------------------- special files, line ends
+# A FIFO or a device where a file is expected is refused before reading;
+# every run is under `timeout 20`, so a regression (a blocking open, a read
+# that never ends) fails instead of hanging (timeout's exit 124 is "a crash?").
+mkfifo sp_fifo.obj sp_fifo.csv sp_fifo.json sp_fifo.h5
+mkdir -p sp_dir && cp src-1.obj sp_dir/f1.obj && mkfifo sp_dir/f2.obj
+ln -sf /dev/zero sp_zero.obj; ln -sf /dev/urandom sp_urandom.ply
+reject special-fifo out.h5 'sp_fifo\.obj: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" import mesh sp_fifo.obj -o out.h5 --name m
+cp in.h5 sp_in.h5
+reject special-fifo "" 'sp_fifo\.obj: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" import sequence src-1.obj sp_fifo.obj -o sp_in.h5 --name s --mesh /meshes/src
+reject special-fifo "" 'sp_dir/f2\.obj: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" import sequence sp_dir -o sp_in.h5 --name sp --mesh /meshes/src
+reject special-fifo mk3.h5 'sp_fifo\.csv: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" import markers sp_fifo.csv --index-base 0 -o mk3.h5 --name m
+reject special-fifo "" 'sp_fifo\.json: not a regular file \(a FIFO\)' timeout 20 "$DTX" run sp_fifo.json
+job j_spfifo src src tgt
+sed -i 's#"source": {"file": "in.h5"#"source": {"file": "sp_fifo.h5"#' j_spfifo.json
+reject special-fifo j_spfifo.h5 'j_spfifo\.json: at /source/file: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" run j_spfifo.json
+reject special-fifo "" 'sp_fifo\.h5: not a regular file \(a FIFO\)' timeout 20 "$DTX" inspect sp_fifo.h5
+reject special-fifo "" 'sp_fifo\.h5: not a regular file \(a FIFO\)' \
+    timeout 20 "$DTX" import mesh src.obj -o sp_fifo.h5 --name m
+# /dev/zero and /dev/urandom under a 1 GiB address-space limit: refused
+# before anything is read (they used to grow a buffer to 4-8 GB).
+reject special-device out.h5 'sp_zero\.obj: not a regular file \(a character device\)' \
+    bash -c "$VLIMIT exec timeout 20 '$DTX' import mesh sp_zero.obj -o out.h5 --name m"
+reject special-device out.h5 'sp_urandom\.ply: not a regular file \(a character device\)' \
+    bash -c "$VLIMIT exec timeout 20 '$DTX' import mesh sp_urandom.ply -o out.h5 --name m"
+mkdir -p sp_dirmesh.obj
+reject special-dir out.h5 'sp_dirmesh\.obj: not a regular file \(a directory\)' \
+    timeout 20 "$DTX" import mesh sp_dirmesh.obj -o out.h5 --name m
+# Lone-CR (classic Mac OS), CRLF and LF line ends all read the same.
+tr '\n' '\r' < src.obj > cr_src.obj
+sed 's/$/\r/' < src.obj > crlf_src.obj
+for f in cr_src crlf_src; do
+    accept line-ends-cr "" "$DTX" import mesh $f.obj -o le.h5 --name $f
+done
+w cr.off 'OFF\r3 1 0\r0 0 0\r1 0 0\r0 1 0\r3 0 1 2\r'
+accept line-ends-cr "" "$DTX" import mesh cr.off -o le.h5 --name cr_off
+w cr.ply "$(printf "${plyh}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n" | tr '\n' '\r')"
+accept line-ends-cr "" "$DTX" import mesh cr.ply -o le.h5 --name cr_ply
+if "$PY" -c '
+import h5py, numpy as np, sys
+f = h5py.File("le.h5", "r"); g = h5py.File("in.h5", "r")
+for m in ("cr_src", "crlf_src"):
+    assert (f["/meshes/%s/vertices" % m][...] == g["/meshes/src/vertices"][...]).all(), m
+    assert (f["/meshes/%s/faces" % m][...] == g["/meshes/src/faces"][...]).all(), m
+' 2>/dev/null; then ok line-ends-cr "CR and CRLF copies give the LF mesh exactly"
+else bad line-ends-cr "CR or CRLF copy differs from the LF mesh"; fi
+# A comment line of any length; a PLY version other than 1.0.
+{ echo "# $(head -c 2000000 /dev/zero | tr '\0' c)"; cat src.obj; } > longcomment.obj
+accept long-comment "" "$DTX" import mesh longcomment.obj -o le.h5 --name longcomment
+w v2.ply "${plyh/format ascii 1.0/format ascii 2.0}0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n"
+imp_rej ply-version v2.ply "v2\.ply:2: PLY version '2\.0' is not supported \(only 1\.0\)"
+# The marker file's own `# index_base:` line, without --index-base; a
+# conflict with --index-base is an error.
+printf '# index_base: 1\nsource_vertex,target_vertex,label\n1,1,top\n86,86,bottom\n' > ib1.csv
+cp in.h5 ib.h5
+accept mk-index-base-line "" "$DTX" import markers ib1.csv -o ib.h5 --name ib \
+    --source /meshes/src --target /meshes/tgt
+ibv=$("$PY" -c 'import h5py; print(list(h5py.File("ib.h5", "r")["/markers/ib/source_vertex"][...]))' 2>&1)
+if [ "$ibv" = "[0, 85]" ]; then ok mk-index-base-line "1-based file read as 1-based: $ibv"
+else bad mk-index-base-line "source vertices $ibv, expected [0, 85]"; fi
+reject mk-index-base-line "" "ib1\.csv:1: the file says index_base 1 but 0-based indices were asked for" \
+    "$DTX" import markers ib1.csv --index-base 0 -o ib.h5 --name ib2
+printf '0,0\n' > none2.csv
+reject mk-index-base-line mk3.h5 "none2\.csv: index base unknown: the file has no '# index_base: 0\|1' line and none was given" \
+    "$DTX" import markers none2.csv -o mk3.h5 --name m
+# Job text that cJSON would misread or misreport.
+job j_nul src src tgt
+sed -i 's#"method": "sp04"#"method": "sp04\\u0000x"#' j_nul.json
+reject job-nul-escape j_nul.h5 'j_nul\.json: at /method: a string holding \\u0000 \(a NUL character\) is not allowed' \
+    "$DTX" run j_nul.json
+{ printf '{"dtx_job": 1, "x":\n'; head -c 10000 /dev/zero | tr '\0' '['; } > j_deep.json
+reject job-deep-nesting j_deep.h5 'j_deep\.json:2:64: JSON nesting deeper than 64 levels' "$DTX" run j_deep.json
+
 # ------------------------------------------------------------------ jobs
 # (Unknown key, syntax error, missing file, output = input: cli.bad_input.)
 job j_type src src tgt

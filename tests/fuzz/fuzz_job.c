@@ -39,7 +39,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (int32_t i = 0; i < job.ntargets; i++) {
         const dtx_job_target *t = &job.targets[i];
         FUZZ_ASSERT(t->name && t->name[0] && t->file && t->file[0] == '/' && t->mesh);
-        FUZZ_ASSERT((t->markers.csv != NULL) != (t->markers.file != NULL));
+        /* At most one marker source; none only with method springs (a
+         * target with the source's connectivity may omit its markers). */
+        FUZZ_ASSERT(!(t->markers.csv && t->markers.file));
+        FUZZ_ASSERT(t->markers.csv || t->markers.file || job.method == DTX_METHOD_SPRINGS);
         FUZZ_ASSERT(!t->markers.csv || t->markers.index_base == 0 || t->markers.index_base == 1);
         FUZZ_ASSERT(!t->markers.file || t->markers.path);
         FUZZ_ASSERT(t->npins >= 0 && (t->npins == 0 || t->pins));

@@ -18,6 +18,7 @@
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 /* ------------------------------------------------------------------ */
@@ -763,6 +764,16 @@ static void test_files(void)
              job_text("{\"file\":\".\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL, NULL,
                       NULL));
     expect_fail_(text, dir, 1, DTX_EJOB, "at /source/file: is a directory", __FILE__, __LINE__);
+    /* Nor is a FIFO (reading it would block the run). */
+    snprintf(path, sizeof path, "%s/fifo.h5", dir);
+    unlink(path);
+    CHECK(mkfifo(path, 0600) == 0);
+    snprintf(text, sizeof text, "%s",
+             job_text("{\"file\":\"fifo.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL,
+                      NULL, NULL));
+    expect_fail_(text, dir, 1, DTX_EJOB, "at /source/file: not a regular file (a FIFO)", __FILE__,
+                 __LINE__);
+    unlink(path);
 
     /* dtx_job_load: relative paths are relative to the job file. */
     snprintf(path, sizeof path, "%s/job.json", dir);
@@ -791,7 +802,7 @@ static void test_files(void)
     snprintf(path, sizeof path, "%s/absent.json", dir);
     CHECK_EQ_INT(dtx_job_load(path, &job, err), DTX_EIO);
     CHECK(strstr(err->msg, path) == err->msg);
-    CHECK(strstr(err->msg, "cannot open the job file") != NULL);
+    CHECK(strstr(err->msg, "cannot open") != NULL);
     CHECK_EQ_INT(dtx_job_load(dir, &job, err), DTX_EIO); /* a directory */
     CHECK(strstr(err->msg, dir) == err->msg);
     free(real);
@@ -1043,6 +1054,108 @@ static void test_target_name_rule(void)
     }
 }
 
+/* A FIFO or a device as the job file: refused before reading.  The load
+ * runs in a child under a 20 s alarm, so a regression (a blocking open)
+ * fails the test instead of hanging it. */
+static void test_special_job_files(void)
+{
+    char fifo[1024], zero[1024];
+    const char *paths[2] = {fifo, zero}, *kinds[2] = {"a FIFO", "a character device"};
+    snprintf(fifo, sizeof fifo, "%s/fifo.json", DTX_TEST_SCRATCH);
+    snprintf(zero, sizeof zero, "%s/zero.json", DTX_TEST_SCRATCH);
+    unlink(fifo);
+    unlink(zero);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    CHECK(symlink("/dev/zero", zero) == 0);
+    for (int i = 0; i < 2; i++) {
+        pid_t pid;
+        int ws = 0;
+        fflush(NULL);
+        pid = fork();
+        if (pid == 0) {
+            dtx_job job;
+            dtx_error err;
+            char want[1200];
+            dtx_status st;
+            alarm(20);
+            st = dtx_job_load(paths[i], &job, &err);
+            snprintf(want, sizeof want, "%s: not a regular file (%s)", paths[i], kinds[i]);
+            if (st == DTX_EIO && strstr(err.msg, want) == err.msg)
+                _exit(0);
+            fprintf(stderr, "  %s: %s: %s\n", paths[i], dtx_status_name(st), err.msg);
+            _exit(1);
+        }
+        CHECK(pid > 0 && waitpid(pid, &ws, 0) == pid);
+        CHECK(WIFEXITED(ws) && WEXITSTATUS(ws) == 0);
+    }
+    unlink(fifo);
+    unlink(zero);
+}
+
+/* A string holding \u0000 anywhere (values and member names, at any depth)
+ * is refused naming its JSON pointer: cJSON would cut the C string there,
+ * so "sp04\u0000x" read as "sp04". */
+static void test_nul_escapes(void)
+{
+    char text[8192];
+    const char *t = job_text(NULL, NULL, NULL, NULL), *m = strstr(t, "\"sp04\"");
+    CHECK(m != NULL);
+    if (!m)
+        return;
+    snprintf(text, sizeof text, "%.*s\"sp04\\u0000x\"%s", (int)(m - t), t, m + 6);
+    EXPECT_FAIL(text, "job.json: at /method: a string holding \\u0000 (a NUL character) is not "
+                      "allowed");
+    EXPECT_FAIL(job_text("{\"file\":\"in.h5\\u0000.txt\",\"mesh\":\"/meshes/cat\","
+                         "\"sequences\":[\"/sequences/walk\"]}",
+                         NULL, NULL, NULL),
+                "at /source/file: a string holding \\u0000");
+    EXPECT_FAIL(job_text("{\"file\":\"in.h5\",\"mesh\":\"/meshes/cat\","
+                         "\"sequences\":[\"/sequences/a\",\"/sequences/walk\\u0000\"]}",
+                         NULL, NULL, NULL),
+                "at /source/sequences/1: a string holding \\u0000");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"no\\u0000te\":1"),
+                "at /no\\u0000te: a string holding \\u0000");
+    /* \\u0000 is a backslash and "u0000", not a NUL: it reaches the schema */
+    EXPECT_FAIL(job_text(NULL, NULL, "{\"file\":\"out\\\\u0000.h5\",\"dtype\":\"float16\"}", NULL),
+                "at /output/dtype");
+}
+
+/* Nesting deeper than DTX_JSON_MAX_DEPTH levels is refused with its line
+ * and column, not as a bare syntax error (cJSON's own limit). */
+static void test_deep_nesting(void)
+{
+    size_t n = 10000;
+    char *text = malloc(n + 32);
+    dtx_job job;
+    dtx_error err;
+    char want[128];
+    CHECK(text != NULL);
+    if (!text)
+        return;
+    text[0] = '\n';
+    memset(text + 1, '[', n);
+    strcpy(text + 1 + n, "");
+    CHECK_EQ_INT(dtx_job_parse(text, n + 1, "deep.json", ".", 0, &job, &err), DTX_EPARSE);
+    snprintf(want, sizeof want, "deep.json:2:%d: JSON nesting deeper than %d levels",
+             DTX_JSON_MAX_DEPTH + 1, DTX_JSON_MAX_DEPTH);
+    CHECK(strcmp(err.msg, want) == 0);
+    if (strcmp(err.msg, want) != 0)
+        fprintf(stderr, "  got: %s\n  want: %s\n", err.msg, want);
+    /* Just at the limit, the depth is fine (the schema then says what is
+     * wrong), and brackets inside strings do not count. */
+    memset(text, '[', DTX_JSON_MAX_DEPTH);
+    memset(text + DTX_JSON_MAX_DEPTH, ']', DTX_JSON_MAX_DEPTH);
+    CHECK_EQ_INT(dtx_job_parse(text, 2 * DTX_JSON_MAX_DEPTH, "ok.json", ".", 0, &job, &err),
+                 DTX_EJOB);
+    CHECK(strstr(err.msg, "nesting") == NULL);
+    snprintf(text, n, "{\"a\":\"");
+    memset(text + 6, '[', 200);
+    strcpy(text + 206, "\"}");
+    CHECK_EQ_INT(dtx_job_parse(text, strlen(text), "str.json", ".", 0, &job, &err), DTX_EJOB);
+    CHECK(strstr(err.msg, "nesting") == NULL);
+    free(text);
+}
+
 int main(void)
 {
     test_embedded_schema();
@@ -1062,5 +1175,8 @@ int main(void)
     test_corpus();
     test_fuzz_regressions();
     test_target_name_rule();
+    test_special_job_files();
+    test_nul_escapes();
+    test_deep_nesting();
     return check_report();
 }

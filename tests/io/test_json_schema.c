@@ -430,6 +430,42 @@ static void test_fuzz_regressions(void)
     }
 }
 
+/* The checks on the JSON text: depth (strings skipped), \u0000 with the
+ * JSON pointer of its place, and line/column with every line end. */
+static void test_text_checks(void)
+{
+    char ptr[128];
+    const char *t;
+    size_t line, col;
+    t = "[[[]]]";
+    CHECK(dtx_json_find_too_deep(t, strlen(t), 3) == (size_t)-1);
+    CHECK(dtx_json_find_too_deep(t, strlen(t), 2) == 2);
+    t = "{\"a\":\"[[[[\\\"[[\"}";
+    CHECK(dtx_json_find_too_deep(t, strlen(t), 1) == (size_t)-1);
+    t = "{\"a\":[1,{\"b\":\"x\"},{\"c\":[\"y\",\"z\\u0000\"]}],\"d\":\"\\u0000\"}";
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) != (size_t)-1);
+    CHECK(strcmp(ptr, "/a/2/c/1") == 0);
+    t = "{\"a\":[1,{\"b\":\"x\"}],\"d~/\":{\"e\":\"\\u0000\"}}";
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) != (size_t)-1);
+    CHECK(strcmp(ptr, "/d~0~1/e") == 0);
+    t = "{\"a\":{},\"k\\u0000\":1}";
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) != (size_t)-1);
+    CHECK(strcmp(ptr, "/k\\u0000") == 0);
+    t = "\"\\u0000\"";
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) == 0);
+    CHECK(strcmp(ptr, "") == 0);
+    t = "{\"a\":\"\\\\u0000\",\"b\":\"\\u00001\"}"; /* an escaped backslash, then a NUL */
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) != (size_t)-1);
+    CHECK(strcmp(ptr, "/b") == 0);
+    t = "{\"a\":\"\\u0001\"}";
+    CHECK(dtx_json_find_nul_escape(t, strlen(t), ptr, sizeof ptr) == (size_t)-1);
+    t = "a\nb\r\nc\rd";
+    dtx_json_line_col(t, strlen(t), 7, &line, &col);
+    CHECK(line == 4 && col == 1);
+    dtx_json_line_col(t, strlen(t), 4, &line, &col);
+    CHECK(line == 2 && col == 2);
+}
+
 int main(void)
 {
     test_type();
@@ -443,5 +479,6 @@ int main(void)
     test_schema_errors();
     test_pointer_append();
     test_fuzz_regressions();
+    test_text_checks();
     return check_report();
 }

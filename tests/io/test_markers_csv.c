@@ -7,6 +7,8 @@
 #include <stdint.h>
 #include <string.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #define SCRATCH DTX_TEST_SCRATCH
 #define DATA_DIR "/work/shared/data"
@@ -331,6 +333,60 @@ static void test_bad_input_rows(void)
     dtx_markers_free(&m);
 }
 
+/* Lone CR, LF and CRLF line ends (the index_base line included), long
+ * comment lines, and a FIFO refused before reading. */
+static void test_line_ends_and_special_files(void)
+{
+    const char *texts[3] = {"# index_base: 1\rsrc,tgt\r12,7,nose\r3,4\r",
+                            "# index_base: 1\nsrc,tgt\n12,7,nose\n3,4\n",
+                            "# index_base: 1\r\nsrc,tgt\r\n12,7,nose\r3,4"};
+    dtx_markers m;
+    dtx_error err;
+    char fifo[512];
+    for (int i = 0; i < 3; i++) {
+        CHECK_OK(parse(texts[i], -1, &m, &err), &err);
+        CHECK_EQ_INT(m.n, 2);
+        if (m.n == 2) {
+            CHECK_EQ_INT(m.src[0], 11);
+            CHECK_EQ_INT(m.tgt[1], 3);
+            CHECK(strcmp(m.labels[0], "nose") == 0);
+        }
+        dtx_markers_free(&m);
+    }
+    expect_fail("# index_base: 0\r1,2\r3,x\r", -1, DTX_EPARSE,
+                "m.csv:3: target vertex 'x' is not an integer");
+    {
+        char *big = malloc(DTX_MESHFILE_MAX_LINE + 100);
+        strcpy(big, "1,2\n# ");
+        memset(big + 6, 'c', DTX_MESHFILE_MAX_LINE);
+        strcpy(big + 6 + DTX_MESHFILE_MAX_LINE, "\n3,4\n");
+        CHECK_OK(parse(big, 0, &m, &err), &err);
+        CHECK_EQ_INT(m.n, 2);
+        dtx_markers_free(&m);
+        free(big);
+    }
+    snprintf(fifo, sizeof fifo, "%s/fifo.csv", SCRATCH);
+    unlink(fifo);
+    CHECK(mkfifo(fifo, 0600) == 0);
+    {
+        pid_t pid;
+        int ws = 0;
+        fflush(NULL);
+        pid = fork();
+        if (pid == 0) {
+            char want[600];
+            dtx_status st;
+            alarm(20); /* a regression (a blocking open) fails instead of hanging */
+            st = dtx_markers_read_csv(fifo, 0, &m, &err);
+            snprintf(want, sizeof want, "%s: not a regular file (a FIFO)", fifo);
+            _exit(st == DTX_EIO && strstr(err.msg, want) == err.msg ? 0 : 1);
+        }
+        CHECK(pid > 0 && waitpid(pid, &ws, 0) == pid);
+        CHECK(WIFEXITED(ws) && WEXITSTATUS(ws) == 0);
+    }
+    unlink(fifo);
+}
+
 int main(void)
 {
     test_base0_header();
@@ -341,5 +397,6 @@ int main(void)
     test_bad_input_rows();
     test_files();
     test_corpus();
+    test_line_ends_and_special_files();
     return check_report();
 }

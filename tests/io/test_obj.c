@@ -10,6 +10,7 @@
 #include <string.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
 
@@ -311,8 +312,9 @@ static void test_binary_and_long_lines(void)
         CHECK(err.msg[0] != '\0');
         dtx_mesh_free(&m);
     }
-    /* a line longer than the limit: an error naming its line, and no
-     * quadratic or unbounded work */
+    /* Comment lines of any length are skipped (a long comment is valid
+     * OBJ); a vertex line longer than the limit is an error naming its
+     * line, and neither needs quadratic or unbounded work. */
     {
         size_t n = DTX_MESHFILE_MAX_LINE + 100;
         char *s = malloc(n + 64);
@@ -320,21 +322,104 @@ static void test_binary_and_long_lines(void)
         memset(s + k, 'a', n);
         k += n;
         k += (size_t)sprintf(s + k, "\nv 0 1 0\nf 1 2 3\n");
-        CHECK_EQ_INT(parse_n(s, k, &m, NULL, &err), DTX_EPARSE);
-        CHECK(strstr(err.msg, "t.obj:3: line too long") != NULL);
-        /* just under the limit (a long comment) is fine */
-        k = (size_t)sprintf(s, "v 0 0 0\nv 1 0 0\n#");
-        memset(s + k, 'a', DTX_MESHFILE_MAX_LINE - 1);
-        k += DTX_MESHFILE_MAX_LINE - 1;
-        k += (size_t)sprintf(s + k, "\nv 0 1 0\nf 1 2 3\n");
         CHECK_OK(parse_n(s, k, &m, NULL, &err), &err);
         CHECK_EQ_INT(m.nf, 1);
         dtx_mesh_free(&m);
+        k = (size_t)sprintf(s, "v 0 0 0\nv 1 0 0\nv 0 1 0");
+        memset(s + k, ' ', n);
+        k += n;
+        k += (size_t)sprintf(s + k, "\nf 1 2 3\n");
+        CHECK_EQ_INT(parse_n(s, k, &m, NULL, &err), DTX_EPARSE);
+        CHECK(strstr(err.msg, "t.obj:3: vertex line too long") != NULL);
         free(s);
     }
 }
 
-/* Every prefix of a small file parses or fails cleanly. */
+/* Lone CR (classic Mac OS), LF and CRLF line ends, also mixed, give the
+ * same mesh, and messages count lines the same way. */
+static void test_cr_line_ends(void)
+{
+    const char *lf = "# c\nv 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    const char *cr = "# c\rv 0 0 0\rv 1 0 0\rv 0 1 0\rf 1 2 3\r";
+    const char *mixed = "# c\r\nv 0 0 0\rv 1 0 0\nv 0 1 0\r\rf 1 2 3";
+    const char *texts[3] = {lf, cr, mixed};
+    dtx_mesh m;
+    dtx_error err;
+    for (int i = 0; i < 3; i++) {
+        CHECK_OK(parse(texts[i], &m, NULL, &err), &err);
+        CHECK_EQ_INT(m.nv, 3);
+        CHECK_EQ_INT(m.nf, 1);
+        if (m.nv == 3)
+            CHECK_DBL(m.V[3], ==, 1.0);
+        dtx_mesh_free(&m);
+    }
+    expect_fail("v 0 0 0\rv 1 0 0\rv x 1 0\rf 1 2 3\r", DTX_EPARSE,
+                "t.obj:3: malformed vertex line: 'x' is not a number");
+    expect_fail("v 0 0 0\r\rv 1 0 0\r\nv 0 1 0\rf 1 2 4\r", DTX_ERANGE, "t.obj:5: ");
+}
+
+/* Reads path with dtx_mesh_read in a child process, under a 20 s alarm
+ * and (outside AddressSanitizer, which reserves terabytes) a 1 GiB
+ * address-space limit, so that a reader that blocks on a FIFO or reads a
+ * device forever fails the test instead of hanging it or filling the
+ * memory.  The read must fail with "PATH: not a regular file (KIND)". */
+static void expect_not_regular(const char *path, const char *kind)
+{
+    pid_t pid;
+    int ws = 0;
+    fflush(NULL);
+    pid = fork();
+    if (pid == 0) {
+        dtx_mesh m;
+        dtx_error err;
+        char want[512];
+        dtx_status st;
+#if !defined(__SANITIZE_ADDRESS__)
+        struct rlimit rl = {(rlim_t)1 << 30, (rlim_t)1 << 30};
+        setrlimit(RLIMIT_AS, &rl);
+#endif
+        alarm(20);
+        st = dtx_mesh_read(path, &m, NULL, &err);
+        snprintf(want, sizeof want, "%s: not a regular file (%s)", path, kind);
+        if (st == DTX_EIO && strstr(err.msg, want) == err.msg && m.V == NULL)
+            _exit(0);
+        fprintf(stderr, "  %s: status %d, message: %s\n", path, (int)st, err.msg);
+        _exit(1);
+    }
+    CHECK(pid > 0);
+    if (pid > 0)
+        CHECK(waitpid(pid, &ws, 0) == pid);
+    CHECK(WIFEXITED(ws) && WEXITSTATUS(ws) == 0);
+    if (!WIFEXITED(ws))
+        fprintf(stderr, "  %s: the reader was killed by signal %d (a hang?)\n", path,
+                WIFSIGNALED(ws) ? WTERMSIG(ws) : 0);
+}
+
+/* A FIFO, a device or a directory where a mesh file is expected: refused
+ * before reading, for every format. */
+static void test_special_files(void)
+{
+    const char *exts[] = {"obj", "ply", "off"};
+    char p[256];
+    for (int i = 0; i < 3; i++) {
+        snprintf(p, sizeof p, SCRATCH "/fifo.%s", exts[i]);
+        unlink(p);
+        CHECK(mkfifo(p, 0600) == 0);
+        expect_not_regular(p, "a FIFO");
+        unlink(p);
+        snprintf(p, sizeof p, SCRATCH "/zero.%s", exts[i]);
+        unlink(p);
+        CHECK(symlink(i == 1 ? "/dev/urandom" : "/dev/zero", p) == 0);
+        expect_not_regular(p, "a character device");
+        unlink(p);
+        snprintf(p, sizeof p, SCRATCH "/dir.%s", exts[i]);
+        rmdir(p);
+        CHECK(mkdir(p, 0700) == 0);
+        expect_not_regular(p, "a directory");
+        rmdir(p);
+    }
+}
+
 static void test_truncation(void)
 {
     const char *s = "# cube-ish\r\nv 0 0 0\r\nv 1 0 0 1\r\nv 1 1 0\r\nv 0 1 -1.5e-2\r\n"
@@ -715,6 +800,8 @@ int main(void)
     test_unknown_keyword();
     test_bad_inputs();
     test_binary_and_long_lines();
+    test_cr_line_ends();
+    test_special_files();
     test_truncation();
     test_mutations();
     test_fuzz_regressions();

@@ -606,15 +606,167 @@ static void test_off_bad(void)
         const char s[] = "OFF\n3 1 0\n0 0 0\n1 0\0 0\n0 1 0\n3 0 1 2\n";
         expect_fail_n(dtx_off_parse, "t.off", s, sizeof s - 1, DTX_EPARSE, "not a text file");
     }
+    /* A comment line of any length is skipped; a vertex line longer than
+     * the limit is an error naming its line. */
     {
         size_t n = DTX_MESHFILE_MAX_LINE + 10;
         char *s = malloc(n + 100);
+        dtx_mesh m;
+        dtx_error err;
         size_t k = (size_t)sprintf(s, "OFF\n3 1 0\n#");
         memset(s + k, 'c', n);
         k += n;
         k += (size_t)sprintf(s + k, "\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n");
+        CHECK_OK(run(dtx_off_parse, "t.off", s, k, &m, NULL, &err), &err);
+        CHECK_EQ_INT(m.nf, 1);
+        dtx_mesh_free(&m);
+        k = (size_t)sprintf(s, "OFF\n3 1 0\n0 0 0");
+        memset(s + k, ' ', n);
+        k += n;
+        k += (size_t)sprintf(s + k, "\n1 0 0\n0 1 0\n3 0 1 2\n");
         expect_fail_n(dtx_off_parse, "t.off", s, k, DTX_EPARSE, "t.off:3: line too long");
         free(s);
+    }
+}
+
+/* s with every "\n" replaced by rep (a new string). */
+static char *relined(const char *s, const char *rep)
+{
+    size_t n = 0, r = strlen(rep), k = 0;
+    char *o;
+    for (const char *p = s; *p; p++)
+        n += *p == '\n' ? r : 1;
+    o = malloc(n + 1);
+    for (const char *p = s; *p; p++) {
+        if (*p == '\n') {
+            memcpy(o + k, rep, r);
+            k += r;
+        } else {
+            o[k++] = *p;
+        }
+    }
+    o[k] = '\0';
+    return o;
+}
+
+/* Lone CR (classic Mac OS) and CRLF line ends read like LF in OFF files,
+ * PLY headers and ascii PLY bodies; a binary body after a lone-CR header
+ * may start with the byte 0x0A. */
+static void test_cr_line_ends(void)
+{
+    const char *off_lf = "OFF\n# c\n3 1 0\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    const char *eols[2] = {"\r", "\r\n"};
+    dtx_mesh m;
+    dtx_error err;
+    for (int i = 0; i < 2; i++) {
+        char *p = relined(ply_ascii, eols[i]), *o = relined(off_lf, eols[i]);
+        CHECK_OK(ply(p, &m, NULL, &err), &err);
+        check_tet(&m);
+        dtx_mesh_free(&m);
+        CHECK_OK(off(o, &m, NULL, &err), &err);
+        CHECK_EQ_INT(m.nv, 3);
+        CHECK_EQ_INT(m.nf, 1);
+        dtx_mesh_free(&m);
+        free(p);
+        free(o);
+    }
+    off_fail("OFF\r3 1 0\r0 0 0\r1 x 0\r0 1 0\r3 0 1 2\r", DTX_EPARSE,
+             "t.off:4: malformed vertex line: 'x' is not a number");
+    {
+        /* ascii PLY line numbers count lone CRs: the face is on line 13 */
+        char *p = relined("ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                          "property float y\nproperty float z\nelement face 1\n"
+                          "property list uchar int vertex_indices\nend_header\n"
+                          "0 0 0\n1 0 0\n0 1 0\n3 0 1 3\n",
+                          "\r");
+        ply_fail(p, DTX_ERANGE, "t.ply:13: face 0 (0-based): vertex index 3 out of range");
+        free(p);
+    }
+    for (int i = 0; i < 2; i++) {
+        /* x of vertex 0 is the float with bits 0x3F80000A: its first byte,
+         * little-endian, is 0x0A, right after end_header's line end */
+        unsigned char b[512];
+        const uint32_t xbits = 0x3F80000Au;
+        const float P[3][3] = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}};
+        float x0;
+        char *h = relined("ply\nformat binary_little_endian 1.0\nelement vertex 3\n"
+                          "property float x\nproperty float y\nproperty float z\n"
+                          "element face 1\nproperty list uchar int vertex_indices\n"
+                          "end_header\n",
+                          eols[i]);
+        size_t n = strlen(h);
+        memcpy(b, h, n);
+        free(h);
+        memcpy(&x0, &xbits, 4);
+        for (int v = 0; v < 3; v++)
+            for (int c = 0; c < 3; c++) {
+                float f = v == 0 && c == 0 ? x0 : P[v][c];
+                uint32_t u;
+                memcpy(&u, &f, 4);
+                for (int k = 0; k < 4; k++)
+                    b[n++] = (unsigned char)(u >> (8 * k));
+            }
+        b[n++] = 3;
+        for (int v = 0; v < 3; v++)
+            for (int k = 0; k < 4; k++)
+                b[n++] = (unsigned char)(k == 0 ? v : 0);
+        CHECK_OK(run(dtx_ply_parse, "b.ply", (char *)b, n, &m, NULL, &err), &err);
+        CHECK_EQ_INT(m.nf, 1);
+        if (m.nf == 1) {
+            CHECK_DBL(m.V[0], ==, (double)x0);
+            CHECK_DBL(m.V[3], ==, 1.0);
+            CHECK_EQ_INT(m.F[2], 2);
+        }
+        dtx_mesh_free(&m);
+    }
+}
+
+/* Only PLY version 1.0 exists; another version is refused, and header
+ * comments may be of any length while other header lines may not. */
+static void test_ply_version_and_long_lines(void)
+{
+    const char *h = "ply\nformat ascii %s\nelement vertex 3\nproperty float x\n"
+                    "property float y\nproperty float z\nelement face 1\n"
+                    "property list uchar int vertex_indices\nend_header\n"
+                    "0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n";
+    char s[512];
+    dtx_mesh m;
+    dtx_error err;
+    snprintf(s, sizeof s, h, "1.0");
+    CHECK_OK(ply(s, &m, NULL, &err), &err);
+    dtx_mesh_free(&m);
+    snprintf(s, sizeof s, h, "2.0");
+    ply_fail(s, DTX_EPARSE, "t.ply:2: PLY version '2.0' is not supported (only 1.0)");
+    snprintf(s, sizeof s, h, "1.01");
+    ply_fail(s, DTX_EPARSE, "t.ply:2: PLY version '1.01' is not supported");
+    snprintf(s, sizeof s, h, "");
+    ply_fail(s, DTX_EPARSE, "t.ply:2: PLY version (none given) is not supported");
+    snprintf(s, sizeof s, h, "1.0 extra");
+    ply_fail(s, DTX_EPARSE, "t.ply:2: unexpected text after");
+    {
+        size_t n = DTX_MESHFILE_MAX_LINE + 10;
+        char *b = malloc(n + 600);
+        size_t k;
+        snprintf(s, sizeof s, h, "1.0");
+        k = (size_t)sprintf(b, "ply\ncomment ");
+        memset(b + k, 'c', n);
+        k += n;
+        k += (size_t)sprintf(b + k, "\n%s", s + 4);
+        CHECK_OK(run(dtx_ply_parse, "t.ply", b, k, &m, NULL, &err), &err);
+        CHECK_EQ_INT(m.nf, 1);
+        dtx_mesh_free(&m);
+        k = (size_t)sprintf(b, "ply\nobj_info ");
+        memset(b + k, ' ', n);
+        k += n;
+        k += (size_t)sprintf(b + k, "\n%s", s + 4);
+        CHECK_OK(run(dtx_ply_parse, "t.ply", b, k, &m, NULL, &err), &err);
+        dtx_mesh_free(&m);
+        k = (size_t)sprintf(b, "ply\nformat ascii 1.0");
+        memset(b + k, ' ', n);
+        k += n;
+        k += (size_t)sprintf(b + k, "\n%s", strchr(s + 4, '\n') + 1);
+        expect_fail_n(dtx_ply_parse, "t.ply", b, k, DTX_EPARSE, "t.ply:2: header line too long");
+        free(b);
     }
 }
 
@@ -853,6 +1005,8 @@ int main(void)
     test_off_good();
     test_off_bad();
     test_off_truncation();
+    test_cr_line_ends();
+    test_ply_version_and_long_lines();
     test_bad_input_rows();
     test_files();
     test_real_data();

@@ -1,0 +1,128 @@
+/* file_util.c: open input files only when they are regular files, without
+ * ever blocking on a FIFO. */
+#include "file_util.h"
+
+#include <errno.h>
+#include <fcntl.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+const char *dtx_file_kind(mode_t mode)
+{
+    if (S_ISREG(mode))
+        return "a regular file";
+    if (S_ISDIR(mode))
+        return "a directory";
+    if (S_ISFIFO(mode))
+        return "a FIFO";
+    if (S_ISCHR(mode))
+        return "a character device";
+    if (S_ISBLK(mode))
+        return "a block device";
+    if (S_ISSOCK(mode))
+        return "a socket";
+    if (S_ISLNK(mode))
+        return "a symbolic link";
+    return "of an unknown type";
+}
+
+dtx_status dtx_file_open_regular(const char *path, int *fd, struct stat *sb, dtx_error *err)
+{
+    struct stat s;
+    int d, fl;
+    *fd = -1;
+    /* O_NONBLOCK: a FIFO opened for reading without it waits for a writer,
+     * possibly forever; with it the open returns at once and fstat below
+     * refuses the FIFO.  A socket cannot be opened at all (ENXIO). */
+    d = open(path, O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    if (d < 0) {
+        if (errno == ENXIO && stat(path, &s) == 0 && !S_ISREG(s.st_mode))
+            return dtx_seterr(err, DTX_EIO, "%s: not a regular file (%s)", path,
+                              dtx_file_kind(s.st_mode));
+        return dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(errno));
+    }
+    if (fstat(d, &s) != 0) {
+        int e = errno;
+        close(d);
+        return dtx_seterr(err, DTX_EIO, "%s: cannot stat: %s", path, strerror(e));
+    }
+    if (!S_ISREG(s.st_mode)) {
+        close(d);
+        return dtx_seterr(err, DTX_EIO, "%s: not a regular file (%s)", path,
+                          dtx_file_kind(s.st_mode));
+    }
+    fl = fcntl(d, F_GETFL);
+    if (fl < 0 || fcntl(d, F_SETFL, fl & ~O_NONBLOCK) != 0) {
+        int e = errno;
+        close(d);
+        return dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(e));
+    }
+    *fd = d;
+    if (sb)
+        *sb = s;
+    return DTX_OK;
+}
+
+dtx_status dtx_file_check_regular(const char *path, dtx_error *err)
+{
+    int fd;
+    dtx_status st = dtx_file_open_regular(path, &fd, NULL, err);
+    if (st == DTX_OK)
+        close(fd);
+    return st;
+}
+
+dtx_status dtx_file_read_regular(const char *path, size_t max_bytes, char **buf, size_t *len,
+                                 dtx_error *err)
+{
+    struct stat sb;
+    char *b;
+    size_t size, n = 0;
+    int fd;
+    dtx_status st;
+
+    *buf = NULL;
+    *len = 0;
+    if ((st = dtx_file_open_regular(path, &fd, &sb, err)) != DTX_OK)
+        return st;
+    /* The size comes from fstat, so the limit is checked before anything is
+     * allocated; only a file that grows while it is read could be larger,
+     * and the read below stops at the size seen here. */
+    if (sb.st_size < 0 || (uintmax_t)sb.st_size > (uintmax_t)max_bytes ||
+        (uintmax_t)sb.st_size >= (uintmax_t)SIZE_MAX) {
+        close(fd);
+        if (max_bytes == SIZE_MAX)
+            return dtx_seterr(err, DTX_ENOMEM, "%s: file too large (%jd bytes)", path,
+                              (intmax_t)sb.st_size);
+        return dtx_seterr(err, DTX_EIO, "%s: file too large (%jd bytes; the limit is %zu)", path,
+                          (intmax_t)sb.st_size, max_bytes);
+    }
+    size = (size_t)sb.st_size;
+    b = malloc(size + 1);
+    if (!b) {
+        close(fd);
+        return dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %zu bytes to read it", path,
+                          size + 1);
+    }
+    while (n < size) {
+        ssize_t got = read(fd, b + n, size - n);
+        if (got < 0 && errno == EINTR)
+            continue;
+        if (got < 0) {
+            int e = errno;
+            free(b);
+            close(fd);
+            return dtx_seterr(err, DTX_EIO, "%s: read error: %s", path, strerror(e));
+        }
+        if (got == 0)
+            break; /* the file shrank while it was read: keep what is there */
+        n += (size_t)got;
+    }
+    close(fd);
+    b[n] = '\0';
+    *buf = b;
+    *len = n;
+    return DTX_OK;
+}

@@ -1,0 +1,47 @@
+/*
+ * file_util.h: opening input files so that a FIFO, a device or a directory
+ * given where a file is expected is refused at once instead of hanging the
+ * run (a FIFO without a writer blocks open and read forever) or filling the
+ * memory (/dev/zero never ends).  Every reader of a user's input file goes
+ * through here: the mesh readers, marker CSVs, PC2 caches, job files and the
+ * HDF5 files before H5Fopen.
+ *
+ * Messages name the path and the kind of file:
+ *   "x.obj: not a regular file (a FIFO)"
+ * All functions are reentrant.
+ */
+#ifndef DTX_FILE_UTIL_H
+#define DTX_FILE_UTIL_H
+
+#include "status.h"
+
+#include <stddef.h>
+#include <sys/stat.h>
+
+/* What the mode's file type is, for messages: "a FIFO", "a character
+ * device", "a directory", ...  Never NULL. */
+const char *dtx_file_kind(mode_t mode);
+
+/* Opens path read-only and returns its descriptor in *fd (close it with
+ * close) and its fstat in *sb (may be NULL).  The open uses O_NONBLOCK, so
+ * that opening a FIFO never waits for a writer; the file type is then
+ * checked with fstat on the open descriptor (no race with a rename between
+ * a stat and the open), and O_NONBLOCK is cleared again.  Anything but a
+ * regular file is DTX_EIO with "path: not a regular file (a FIFO)" and *fd
+ * is -1; so is a file that cannot be opened ("path: cannot open: reason"). */
+dtx_status dtx_file_open_regular(const char *path, int *fd, struct stat *sb, dtx_error *err);
+
+/* As dtx_file_open_regular, then closes the file: for inputs that another
+ * library opens by name (H5Fopen blocks forever on a FIFO). */
+dtx_status dtx_file_check_regular(const char *path, dtx_error *err);
+
+/* Reads the whole regular file at path into a new buffer *buf (malloc'd,
+ * freed by the caller with free) of *len bytes plus one NUL byte at
+ * (*buf)[*len].  A file of more than max_bytes bytes (by fstat, before
+ * anything is allocated) is DTX_EIO with "path: file too large (N bytes;
+ * the limit is M)"; pass SIZE_MAX for no limit beyond the memory.  On
+ * failure *buf is NULL and *len is 0. */
+dtx_status dtx_file_read_regular(const char *path, size_t max_bytes, char **buf, size_t *len,
+                                 dtx_error *err);
+
+#endif /* DTX_FILE_UTIL_H */
