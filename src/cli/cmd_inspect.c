@@ -12,6 +12,7 @@
 
 #include "options.h"
 
+#include "file_util.h"
 #include "h5inspect.h"
 #include "h5layout.h"
 
@@ -223,20 +224,16 @@ static double jnum(const cJSON *o, const char *key)
 static cJSON *read_run_summary(const char *file, char *path, size_t n)
 {
     char *text = NULL;
-    long len;
+    size_t len = 0;
+    dtx_error e;
     cJSON *j = NULL;
-    FILE *f;
     snprintf(path, n, "%s.summary.json", file);
-    f = fopen(path, "rb");
-    if (!f)
+    /* A summary is a few kilobytes; anything much larger, or not a regular
+     * file (a FIFO would block), is not one. */
+    if (dtx_file_read_regular(path, (size_t)1 << 24, &text, &len, &e) != DTX_OK)
         return NULL;
-    /* A summary is a few kilobytes; anything much larger is not one. */
-    if (fseek(f, 0, SEEK_END) == 0 && (len = ftell(f)) > 0 && len < (1L << 24) &&
-        fseek(f, 0, SEEK_SET) == 0 && (text = malloc((size_t)len)) != NULL &&
-        fread(text, 1, (size_t)len, f) == (size_t)len)
-        j = cJSON_ParseWithLength(text, (size_t)len);
+    j = cJSON_ParseWithLength(text, len);
     free(text);
-    fclose(f);
     if (j && !cJSON_IsObject(j)) {
         cJSON_Delete(j);
         j = NULL;

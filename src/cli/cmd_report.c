@@ -16,6 +16,7 @@
 #include "options.h"
 
 #include "atomic_file.h"
+#include "file_util.h"
 #include "cmd_render.h"
 #include "h5layout.h"
 
@@ -186,32 +187,19 @@ static dtx_status list_results(hid_t f, char (*found)[DTX_H5_PATH_MAX], int *n, 
  * but does not parse is an error naming it. */
 static dtx_status load_summary(const char *path, int required, cJSON **out, dtx_error *err)
 {
-    FILE *fp;
-    long len;
     char *text = NULL;
+    size_t len = 0;
+    struct stat sb;
+    dtx_status st;
     *out = NULL;
-    fp = fopen(path, "rb");
-    if (!fp) {
-        if (!required && errno == ENOENT)
-            return DTX_OK;
-        return dtx_seterr(err, DTX_EIO, "%s: cannot open the run summary: %s", path,
-                          strerror(errno));
+    if (!required && stat(path, &sb) != 0 && errno == ENOENT)
+        return DTX_OK;
+    /* A regular file of at most 64 MiB: a FIFO would block the report. */
+    if ((st = dtx_file_read_regular(path, (size_t)64 << 20, &text, &len, err)) != DTX_OK) {
+        dtx_error_prefix(err, "the run summary");
+        return st;
     }
-    if (fseek(fp, 0, SEEK_END) != 0 || (len = ftell(fp)) < 0 || len > (64L << 20) ||
-        fseek(fp, 0, SEEK_SET) != 0) {
-        fclose(fp);
-        return dtx_seterr(err, DTX_EIO, "%s: cannot read the run summary (or larger than 64 MiB)",
-                          path);
-    }
-    text = dtx_alloc((size_t)len + 1, 1, 0);
-    if (!text || fread(text, 1, (size_t)len, fp) != (size_t)len) {
-        fclose(fp);
-        free(text);
-        return dtx_seterr(err, DTX_EIO, "%s: cannot read the run summary", path);
-    }
-    fclose(fp);
-    text[len] = 0;
-    *out = cJSON_Parse(text);
+    *out = cJSON_ParseWithLength(text, len);
     free(text);
     if (!*out)
         return dtx_seterr(err, DTX_EPARSE, "%s: the run summary is not valid JSON", path);

@@ -15,6 +15,7 @@
  * ranges, finiteness, frame_done), and only after the stored bytes have
  * been found able to hold the dataset's shape.
  */
+#include "file_util.h"
 #include "h5layout.h"
 
 #include <cjson/cJSON.h>
@@ -1211,8 +1212,8 @@ dtx_status dtx_h5_validate(const char *path, char **report, dtx_error *err)
     *report = NULL;
     snprintf(c.fname, sizeof c.fname, "%s", path);
 
-    if (access(path, R_OK) != 0) {
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot open: %s", path, strerror(errno));
+    /* A FIFO or a device would make H5Fis_hdf5 wait or read for ever. */
+    if ((st = dtx_file_check_regular(path, err)) != DTX_OK) {
         out(&c, "%s\n", err ? err->msg : "cannot open");
         goto done;
     }

@@ -194,4 +194,14 @@ expect h5-index-64bit 0 "" "$DTX" export fok.h5 /sequences/walk --obj-dir obj-ok
 expect h5-index-64bit 1 "/meshes/src/faces: expected 32-bit signed integer values, found 64-bit" \
     "$DTX" validate f64.h5
 
+# Special files where the checking commands read: a FIFO as the file to
+# validate, and a FIFO as the run summary beside a result (inspect, report):
+# refused or left out at once, never a hang (timeout 20 turns a hang into a
+# failure).
+mkfifo fifo.h5 && cp out.h5 sumfifo.h5 && mkfifo sumfifo.h5.summary.json
+expect special-validate 1 "fifo\.h5: not a regular file \(a FIFO\)" timeout 20 "$DTX" validate fifo.h5
+expect special-summary 0 "sumfifo\.h5" timeout 20 "$DTX" inspect sumfifo.h5
+expect special-summary 1 "the run summary: .*sumfifo\.h5\.summary\.json: not a regular file \(a FIFO\)" \
+    timeout 20 "$DTX" report sumfifo.h5 --no-pictures
+
 finish
