@@ -77,9 +77,12 @@ static const char *base_name(const char *path)
     return s ? s + 1 : path;
 }
 
+/* The job's target-name characters, and the layout's name rule (not "." or
+ * "..", not the reserved ".dtx-" prefix: dtx_h5_check_name). */
 static int valid_name(const char *s)
 {
-    if (!*s)
+    dtx_error e;
+    if (!*s || dtx_h5_check_name(s, &e) != DTX_OK)
         return 0;
     for (; *s; s++)
         if (!((*s >= 'A' && *s <= 'Z') || (*s >= 'a' && *s <= 'z') || (*s >= '0' && *s <= '9') ||
@@ -180,7 +183,7 @@ static const char *parse_args(int argc, char **argv, kp_args *a, char *buf, size
     else
         snprintf(a->name, sizeof a->name, "%.200s-keys", base_name(a->mesh));
     if (!valid_name(a->name)) {
-        snprintf(buf, n, "--name \"%.200s\" must be letters, digits, '_', '.' or '-'%s", a->name,
+        snprintf(buf, n, "--name \"%.200s\" must be letters, digits, '_', '.' or '-', not . or .. and not starting with .dtx-%s", a->name,
                  name ? "" : " (it defaults to the mesh name + \"-keys\"; give --name)");
         return buf;
     }

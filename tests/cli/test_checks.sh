@@ -204,4 +204,11 @@ expect special-summary 0 "sumfifo\.h5" timeout 20 "$DTX" inspect sumfifo.h5
 expect special-summary 1 "the run summary: .*sumfifo\.h5\.summary\.json: not a regular file \(a FIFO\)" \
     timeout 20 "$DTX" report sumfifo.h5 --no-pictures
 
+# dtx keypoints checks its --name against the layout's name rule before
+# computing anything (usage error, exit 2).
+for nm in .. . .dtx-tmp-k; do
+    expect import-name 2 "--name \"$nm\" must be .*not \. or \.\. and not starting with \.dtx-" \
+        "$DTX" keypoints in.h5 --mesh /meshes/src --sequence /sequences/walk --name "$nm"
+done
+
 finish
