@@ -34,7 +34,8 @@ static const char usage_text[] =
     "                      [--dtype float32|float64] [--compress none|gzip]\n"
     "  dtx import markers FILE.csv --index-base 0|1 -o OUT.h5 --name NAME\n"
     "                     [--source /meshes/A] [--target /meshes/B]\n"
-    "  dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]   (alone or under mpirun)\n"
+    "  dtx run JOB.json [--resume] [--break-lock] [--quiet] [--summary FILE.json]\n"
+    "                                           (alone or under mpirun)\n"
     DTX_KEYPOINTS_USAGE
     DTX_EXPORT_USAGE
     DTX_INSPECT_USAGE
@@ -481,6 +482,8 @@ static int cmd_run(int argc, char **argv)
             o.quiet = 1;
         else if (strcmp(argv[i], "--resume") == 0)
             o.resume = 1;
+        else if (strcmp(argv[i], "--break-lock") == 0)
+            o.break_lock = 1;
     o.summary_path = opt(argc, argv, "--summary");
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
