@@ -14,6 +14,7 @@
 #include "h5layout.h"
 #include "job.h"
 #include "meshfile.h"
+#include "path_guard.h"
 
 #include <dirent.h>
 #include <ctype.h>
@@ -104,6 +105,22 @@ static int positionals(int argc, char **argv, int from, char **out, int cap)
     return n;
 }
 
+/* Before an import reads anything: OUT.h5 is none of the n input files
+ * (path_guard.h) and not a directory or other special file. */
+static dtx_status check_import_output(char *const *inputs, int n, const char *role,
+                                      const char *out, dtx_error *err)
+{
+    dtx_path_guard g;
+    dtx_status st = DTX_OK;
+    dtx_path_guard_init(&g);
+    for (int i = 0; i < n && st == DTX_OK; i++)
+        st = dtx_path_guard_add(&g, inputs[i], role, err);
+    if (st == DTX_OK)
+        st = dtx_path_guard_check(&g, out, "the output, -o", err);
+    dtx_path_guard_free(&g);
+    return st == DTX_OK ? dtx_output_path_check(out, "the output, -o", err) : st;
+}
+
 /* Opens OUT.h5 for adding objects, creating it when missing (*created = 1). */
 static dtx_status open_for_import(const char *path, hid_t *file, int *created, dtx_error *err)
 {
@@ -142,6 +159,8 @@ static int cmd_import_mesh(int argc, char **argv)
     dtx_status st;
     if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
         return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
+    if ((st = check_import_output(pos, 1, "the mesh file", out, &err)) != DTX_OK)
+        return fail(&err);
     st = dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
         return fail(&err);
@@ -291,6 +310,12 @@ static int cmd_import_sequence(int argc, char **argv)
     files = frame_list(pos, npos, &nframes, &err);
     if (!files)
         return fail(&err);
+    if ((st = check_import_output(files, nframes, "a frame file", out, &err)) != DTX_OK) {
+        for (int i = 0; i < nframes; i++)
+            free(files[i]);
+        free(files);
+        return fail(&err);
+    }
     snprintf(group, sizeof group, "/sequences/%s", name);
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
@@ -373,6 +398,8 @@ static int cmd_import_markers(int argc, char **argv)
         ib = 1;
     else
         return usage("--index-base must be 0 or 1");
+    if ((st = check_import_output(pos, 1, "the markers file", out, &err)) != DTX_OK)
+        return fail(&err);
     st = dtx_markers_read_csv(pos[0], ib, &mk, &err);
     if (st != DTX_OK)
         return fail(&err);

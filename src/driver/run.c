@@ -933,9 +933,13 @@ static dtx_status take_output(run_state *r, dtx_error *err)
  * tells truthfully what is left.  A partial that reads back with this
  * run's key is kept (its frames for --resume when the failure can go away,
  * such as a full disk; its correspondences for a new run otherwise); one
- * that does not read back is this run's own, useless, and removed. */
-static void partial_fate(run_state *r, const char *job_path, const dtx_error *err)
+ * that does not read back is this run's own, useless, and removed.  The
+ * sentence is added to err's message as its second line, so that it
+ * follows the error itself. */
+static void partial_fate(run_state *r, const char *job_path, dtx_error *err)
 {
+    char note[12000];
+    size_t len;
     hid_t f = H5I_INVALID_HID;
     dtx_error e;
     char *key = NULL, why[1200] = "";
@@ -986,21 +990,24 @@ static void partial_fate(run_state *r, const char *job_path, const dtx_error *er
         dtx_h5_close(&f, NULL);
     if (!readable) {
         if (remove(r->partial) == 0)
-            fprintf(stderr, "dtx: removed %s, which this run created: it does not read back "
-                    "(%s), so no run could continue it\n", r->partial, why);
+            snprintf(note, sizeof note, "dtx: removed %s, which this run created: it does not "
+                     "read back (%s), so no run could continue it", r->partial, why);
         else
-            fprintf(stderr, "dtx: %s does not read back (%s) and cannot be removed (%s): "
-                    "remove it before the next run\n", r->partial, why, strerror(errno));
+            snprintf(note, sizeof note, "dtx: %s does not read back (%s) and cannot be removed "
+                     "(%s): remove it before the next run", r->partial, why, strerror(errno));
     } else if (cause_can_pass) {
-        fprintf(stderr, "dtx: %s is kept: %lld of %lld frames done; once the cause above is "
-                "fixed, `dtx run --resume %s` continues from there\n",
-                r->partial, (long long)done, (long long)total, job_path);
+        snprintf(note, sizeof note, "dtx: %s is kept: %lld of %lld frames done; once the cause "
+                 "above is fixed, `dtx run --resume %s` continues from there",
+                 r->partial, (long long)done, (long long)total, job_path);
     } else {
-        fprintf(stderr, "dtx: %s is kept (%lld of %lld frames done, and its correspondences): "
-                "`dtx run --resume` would meet the same error; once the input is corrected, "
-                "`dtx run %s` starts the frames over and reuses the correspondences\n",
-                r->partial, (long long)done, (long long)total, job_path);
+        snprintf(note, sizeof note, "dtx: %s is kept (%lld of %lld frames done, and its "
+                 "correspondences): `dtx run --resume` would meet the same error; once the input "
+                 "is corrected, `dtx run %s` starts the frames over and reuses the "
+                 "correspondences",
+                 r->partial, (long long)done, (long long)total, job_path);
     }
+    len = strlen(err->msg);
+    snprintf(err->msg + len, sizeof err->msg - len, "\n%s", note);
 }
 
 /* Rank 0: fresh, resume or done. */
