@@ -37,41 +37,61 @@ static void host_name(char *buf, size_t n)
     buf[n - 1] = '\0';
 }
 
-/* Creates path exclusively and writes this process's details into it.
- * 0, or -1 with errno (EEXIST: it exists). */
+/* Creates path exclusively, holding this process's details: they are
+ * written to a temporary file first, which is then hard-linked to path, so
+ * that the lock appears with its contents complete (link() fails with
+ * EEXIST when path exists, atomically, on NFS too; there a lost reply is
+ * recognised by the temporary file's link count).  0, or -1 with errno
+ * (EEXIST: it exists). */
 static int write_lock(const char *path, const char *output)
 {
-    char host[256], when[64], text[4400];
+    char host[256], when[64], text[4400], *tmp;
     time_t now = time(NULL);
     struct tm tmv;
-    int fd, len, e;
+    struct stat sb;
+    int fd, len, e = 0, r;
     host_name(host, sizeof host);
     if (localtime_r(&now, &tmv))
         strftime(when, sizeof when, "%Y-%m-%d %H:%M:%S %Z", &tmv);
     else
         snprintf(when, sizeof when, "?");
-    fd = open(path, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (fd < 0)
+    tmp = malloc(strlen(path) + strlen(host) + 48);
+    if (!tmp) {
+        errno = ENOMEM;
         return -1;
+    }
+    sprintf(tmp, "%s.%s.%ld.tmp", path, host, (long)getpid());
+    unlink(tmp); /* our own, left by an earlier attempt */
+    fd = open(tmp, O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+    if (fd < 0) {
+        e = errno;
+        free(tmp);
+        errno = e;
+        return -1;
+    }
     len = snprintf(text, sizeof text,
                    "dtx output lock\nhost: %s\npid: %ld\nstarted: %s\nepoch: %lld\noutput: %s\n",
                    host, (long)getpid(), when, (long long)now, output);
     if (len < 0 || (size_t)len >= sizeof text)
         len = (int)strlen(text);
-    if (write(fd, text, (size_t)len) != (ssize_t)len || fsync(fd) != 0) {
+    if (write(fd, text, (size_t)len) != (ssize_t)len || fsync(fd) != 0)
         e = errno ? errno : EIO;
-        close(fd);
-        unlink(path);
-        errno = e;
-        return -1;
-    }
-    if (close(fd) != 0) {
+    if (close(fd) != 0 && !e)
         e = errno;
-        unlink(path);
-        errno = e;
-        return -1;
+    r = -1;
+    if (!e) {
+        r = link(tmp, path);
+        if (r != 0) {
+            e = errno;
+            if (e != EEXIST && stat(tmp, &sb) == 0 && sb.st_nlink == 2)
+                r = 0;
+        }
     }
-    return 0;
+    unlink(tmp);
+    free(tmp);
+    if (r != 0)
+        errno = e;
+    return r;
 }
 
 /* Reads the lock at path.  0 (h filled; h->parsed says whether host and

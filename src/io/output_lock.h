@@ -2,10 +2,12 @@
  * output_lock.h: one writer per output file, on local disks and on cluster
  * file systems alike.
  *
- * The lock is the file OUTPUT.lock beside the output, created with
- * O_CREAT | O_EXCL (atomic on local file systems, NFS v3+, Lustre, GPFS and
- * BeeGFS, unlike flock/fcntl locks, which some of them ignore or emulate
- * per node).  It holds the host name, the process id and the start time of
+ * The lock is the file OUTPUT.lock beside the output, created exclusively:
+ * its contents are written to a temporary file (O_CREAT | O_EXCL) that is
+ * then hard-linked to OUTPUT.lock, so the lock never exists half-written.
+ * link() fails with EEXIST atomically on local file systems, NFS (v2 on),
+ * Lustre, GPFS and BeeGFS, unlike flock/fcntl locks, which some of them
+ * ignore or keep per node.  It holds the host name, the process id and the start time of
  * the run that holds it, so that a refused run can name it.  A run killed
  * with SIGKILL leaves the file behind:
  *   - on the host that wrote it, a lock whose process no longer exists is
