@@ -119,7 +119,26 @@ static int read_holder(const char *path, holder *h)
     return 0;
 }
 
-/* 1 when h was written on this host by a process that no longer exists. */
+/* 1 when process pid is a zombie (killed, not yet reaped: a rank whose
+ * mpirun was killed too waits for a parent that may never reap it). */
+static int is_zombie(long pid)
+{
+    char path[64], buf[512], *p;
+    size_t n;
+    FILE *f;
+    snprintf(path, sizeof path, "/proc/%ld/stat", pid);
+    if (!(f = fopen(path, "r")))
+        return 0;
+    n = fread(buf, 1, sizeof buf - 1, f);
+    fclose(f);
+    buf[n] = '\0';
+    /* "pid (comm) S ...": the command may hold spaces and parentheses. */
+    p = strrchr(buf, ')');
+    return p && (p[1] == ' ') && (p[2] == 'Z' || p[2] == 'X');
+}
+
+/* 1 when h was written on this host by a process that no longer exists
+ * (or is a zombie). */
 static int is_stale(const holder *h)
 {
     char host[256];
@@ -128,7 +147,9 @@ static int is_stale(const holder *h)
     host_name(host, sizeof host);
     if (strcmp(host, h->host) != 0)
         return 0;
-    return kill((pid_t)h->pid, 0) != 0 && errno == ESRCH;
+    if (kill((pid_t)h->pid, 0) != 0)
+        return errno == ESRCH;
+    return is_zombie(h->pid);
 }
 
 static dtx_status held(const char *output, const char *lockp, const holder *h, dtx_error *err)
