@@ -988,7 +988,15 @@ static void partial_fate(run_state *r, const char *job_path, dtx_error *err)
     free(key);
     if (f >= 0)
         dtx_h5_close(&f, NULL);
-    if (!readable) {
+    if (!readable && strstr(why, "already open")) {
+        /* HDF5 still holds it (it could not close it after the failure):
+         * the reopen judged nothing.  Left as it is; the next run reads
+         * it, or refuses it with a message. */
+        snprintf(note, sizeof note, "dtx: %s is left as it is: it could not be checked (%s)",
+                 r->partial, why);
+    } else if (!readable) {
+        /* Read back from disk after the failure: what is there now is
+         * what any later run would find. */
         if (remove(r->partial) == 0)
             snprintf(note, sizeof note, "dtx: removed %s, which this run created: it does not "
                      "read back (%s), so no run could continue it", r->partial, why);
