@@ -423,6 +423,13 @@ reject out-partial-foreign "" 'j_foreign\.h5\.partial exists and is not a partia
     "$DTX" run --quiet j_foreign.json
 [ "$(cat j_foreign.h5.partial)" = notes ] && ok out-partial-foreign "the text file is kept" ||
     bad out-partial-foreign "the text file named OUTPUT.partial was changed"
+# --summary naming an input (the summary is written aside and renamed over
+# its name): refused before anything is read.
+job j_sumin src src tgt
+sum=$(cksum < markers.csv)
+reject out-summary-is-input j_sumin.h5 'markers\.csv \(the run summary\) is also an input \(/targets/0/markers/csv' \
+    "$DTX" run --quiet --summary markers.csv j_sumin.json
+unchanged out-summary-is-input markers.csv "$sum"
 # An existing directory as the output: refused before any input is read
 # (the source here is not even HDF5, and that is not what is reported).
 job j_outdir src src tgt
