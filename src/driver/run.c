@@ -857,16 +857,20 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
         if (st == DTX_OK)
             st = dtx_path_guard_add(&g, tg->markers.file, role[2], err);
     }
+    int from_summary = 0; /* the failing path came from --summary */
     for (int i = 0; i < nw && st == DTX_OK; i++)
-        st = dtx_path_guard_check(&g, w[i].path, w[i].use, err);
+        if ((st = dtx_path_guard_check(&g, w[i].path, w[i].use, err)) != DTX_OK)
+            from_summary = i >= 4 && r->opts->summary_path;
     dtx_path_guard_free(&g);
     if (st == DTX_OK)
         st = dtx_output_path_check(j->output_file, "the output", err);
     if (st == DTX_OK)
         st = dtx_output_path_check(r->partial, "the output's temporary file", err);
-    if (st == DTX_OK)
-        st = dtx_output_path_check(summary, "the run summary", err);
-    if (st != DTX_OK && j->job_path)
+    if (st == DTX_OK && (st = dtx_output_path_check(summary, "the run summary", err)) != DTX_OK)
+        from_summary = r->opts->summary_path != NULL;
+    if (st != DTX_OK && from_summary)
+        dtx_error_prefix(err, "--summary");
+    else if (st != DTX_OK && j->job_path)
         dtx_error_prefix(err, "%s: /output/file", j->job_path);
     return st;
 }
