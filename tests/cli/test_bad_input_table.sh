@@ -20,15 +20,16 @@ ok() { echo "ok: [$1] $2"; pass=$((pass + 1)); }
 bad() { echo "FAILED: [$1] $2"; fails=$((fails + 1)); }
 
 # reject ROW OUTPUT PATTERN COMMAND...: non-zero exit, a message matching
-# PATTERN (extended regex), and neither OUTPUT nor OUTPUT.partial left.
+# PATTERN (extended regex), and neither OUTPUT nor OUTPUT.partial nor the
+# lock OUTPUT.lock left.
 reject() {
     local row=$1 out=$2 pattern=$3 msg rc; shift 3
     msg=$("$@" 2>&1); rc=$?
     if [ $rc -eq 0 ]; then bad "$row" "exit 0: $msg"; return; fi
     if [ $rc -gt 2 ]; then bad "$row" "exit $rc (a crash?): $msg"; return; fi
     if ! grep -qE -- "$pattern" <<<"$msg"; then bad "$row" "message lacks /$pattern/: $msg"; return; fi
-    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ]; }; then
-        bad "$row" "$out or $out.partial was left behind"; return
+    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ] || [ -e "$out.lock" ]; }; then
+        bad "$row" "$out, $out.partial or $out.lock was left behind"; return
     fi
     ok "$row" "$(head -1 <<<"$msg")"
 }
