@@ -89,6 +89,8 @@ static const dtx_cli_cmd import_markers = {
 
 static const dtx_cli_opt run_opts[] = {
     {"--resume", NULL, "continue the interrupted run of the same job (OUTPUT.partial)"},
+    {"--break-lock", NULL, "take over OUTPUT.lock left by a run that is gone (say, on another "
+                           "host); check first that it is"},
     {"--quiet", NULL, "print errors only (no progress, no warnings)"},
     {"--summary", "FILE.json", "where to write the run summary (default OUTPUT.summary.json)"},
     {NULL, NULL, NULL},
@@ -97,10 +99,11 @@ static const dtx_cli_opt run_opts[] = {
 static const dtx_cli_cmd run = {
     "run",
     "run a transfer job (alone or under mpirun)",
-    "dtx run JOB.json [--resume] [--quiet] [--summary FILE.json]",
+    "dtx run JOB.json [--resume] [--break-lock] [--quiet] [--summary FILE.json]",
     "Reads the job (schemas/job.schema.json), computes or reuses each target's\n"
     "correspondence, transfers every frame of every sequence onto every target and\n"
-    "writes OUTPUT (through OUTPUT.partial, renamed only when complete).",
+    "writes OUTPUT (through OUTPUT.partial, renamed only when complete).  OUTPUT.lock\n"
+    "keeps a second run off the same output; dtx never writes over its inputs.",
     run_opts,
     "mpirun -np 2 dtx run jobs/cat-lion.json\n"
     "dtx run job.json --resume",

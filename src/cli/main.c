@@ -18,6 +18,7 @@
 #include "meshfile.h"
 #include "h5mesh_attrs.h"
 #include "options.h"
+#include "path_guard.h"
 
 #include <dirent.h>
 #include <fnmatch.h>
@@ -150,6 +151,22 @@ static int positionals(int argc, char **argv, int from, char **out, int cap)
     return n;
 }
 
+/* Before an import reads anything: OUT.h5 is none of the n input files
+ * (path_guard.h) and not a directory or other special file. */
+static dtx_status check_import_output(char *const *inputs, int n, const char *role,
+                                      const char *out, dtx_error *err)
+{
+    dtx_path_guard g;
+    dtx_status st = DTX_OK;
+    dtx_path_guard_init(&g);
+    for (int i = 0; i < n && st == DTX_OK; i++)
+        st = dtx_path_guard_add(&g, inputs[i], role, err);
+    if (st == DTX_OK)
+        st = dtx_path_guard_check(&g, out, "the output, -o", err);
+    dtx_path_guard_free(&g);
+    return st == DTX_OK ? dtx_output_path_check(out, "the output, -o", err) : st;
+}
+
 /* Opens OUT.h5 for adding objects, creating it when missing (*created = 1). */
 static dtx_status open_for_import(const char *path, hid_t *file, int *created, dtx_error *err)
 {
@@ -200,6 +217,8 @@ static int cmd_import_mesh(int argc, char **argv)
     if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
         return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
     if (check_import_name(name, &err) != DTX_OK)
+        return fail(&err);
+    if ((st = check_import_output(pos, 1, "the mesh file", out, &err)) != DTX_OK)
         return fail(&err);
     st = dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
@@ -455,6 +474,12 @@ static int cmd_import_sequence(int argc, char **argv)
     files = frame_list(pos, npos, &ff, &nframes, &err);
     if (!files)
         return fail(&err);
+    if ((st = check_import_output(files, nframes, "a frame file", out, &err)) != DTX_OK) {
+        for (int i = 0; i < nframes; i++)
+            free(files[i]);
+        free(files);
+        return fail(&err);
+    }
     snprintf(group, sizeof group, "/sequences/%s", name);
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
@@ -572,6 +597,8 @@ static int cmd_import_markers(int argc, char **argv)
         ib = 1;
     else if (base)
         return usage("--index-base must be 0 or 1");
+    if ((st = check_import_output(pos, 1, "the markers file", out, &err)) != DTX_OK)
+        return fail(&err);
     st = dtx_markers_read_csv(pos[0], ib, &mk, &err);
     if (st != DTX_OK)
         return fail(&err);
@@ -626,6 +653,8 @@ static int cmd_run(int argc, char **argv)
             o.quiet = 1;
         else if (strcmp(argv[i], "--resume") == 0)
             o.resume = 1;
+        else if (strcmp(argv[i], "--break-lock") == 0)
+            o.break_lock = 1;
     o.summary_path = opt(argc, argv, "--summary");
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);

@@ -28,6 +28,8 @@ typedef struct {
     int quiet;          /* no progress or summary on stderr */
     const char *summary_path; /* run summary JSON, or NULL for OUTPUT.summary.json */
     int resume;         /* continue OUTPUT.partial of an interrupted run of the same job */
+    int break_lock;     /* remove OUTPUT.lock first: the user checked that the run
+                           it names is gone (output_lock.h) */
 } dtx_run_opts;
 
 /* Runs the job file at job_path on every rank of comm (MPI must be

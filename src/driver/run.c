@@ -48,6 +48,8 @@
 #include "keypoints.h"
 #include "meshfile.h"
 #include "weld_setup.h"
+#include "output_lock.h"
+#include "path_guard.h"
 #include "progress.h"
 #include "springs.h"
 #include "transfer_bh.h"
@@ -141,6 +143,7 @@ typedef struct {
     hid_t src_file, out;
     char partial[4200];
     char run_key[17];
+    dtx_output_lock lock; /* rank 0: OUTPUT.lock, held from take_output to the end */
     out_mode mode;
     int nt, ns;
     target_ctx *tg;
@@ -598,7 +601,10 @@ static dtx_status read_sequences(run_state *r, dtx_error *err)
         if (st != DTX_OK)
             break;
         sc->open = 1;
-        if (sc->seq.nv != r->src_weld.nv)
+        if (sc->seq.nframes < 1)
+            st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no frames (0 frames); a sequence needs "
+                            "at least 1", r->job.source_file, sc->path);
+        else if (sc->seq.nv != r->src_weld.nv)
             st = dtx_seterr(err, DTX_EFORMAT,
                             "%s: %s has %d vertices per frame but the source mesh %s has %d",
                             r->job.source_file, sc->path, (int)sc->seq.nv, r->job.source_mesh,
@@ -827,6 +833,222 @@ static int file_matches(run_state *r, const char *path, int need_complete, char 
     free(key);
     dtx_h5_close(&f, NULL);
     return ok;
+}
+
+/* The mark of a partial output that dtx run created: written and flushed
+ * right after the file is created, so that a later run may delete or
+ * continue it.  Anything else named OUTPUT.partial is left alone. */
+#define PARTIAL_MARK "dtx_partial_of"
+
+static dtx_status mark_partial(run_state *r, hid_t f, dtx_error *err)
+{
+    dtx_status st = dtx_h5_write_attr_str(f, ".", PARTIAL_MARK, r->job.output_file, err);
+    return st == DTX_OK ? dtx_h5_flush(f, err) : st;
+}
+
+/* Rank 0: the paths dtx run writes (OUTPUT, OUTPUT.partial, OUTPUT.lock,
+ * the summary) are none of the job's inputs and not directories or other
+ * special files.  Nothing is created yet. */
+static dtx_status check_output_paths(run_state *r, dtx_error *err)
+{
+    const dtx_job *j = &r->job;
+    dtx_path_guard g;
+    char lockp[4300], breakp[4400], summary[4200], sumtmp[4300];
+    dtx_status st;
+    struct { const char *path, *use; } w[7];
+    int nw = 0;
+    snprintf(lockp, sizeof lockp, "%s.lock", j->output_file);
+    snprintf(breakp, sizeof breakp, "%s.break", lockp);
+    snprintf(summary, sizeof summary, "%s",
+             r->opts->summary_path ? r->opts->summary_path : j->output_file);
+    if (!r->opts->summary_path)
+        snprintf(summary, sizeof summary, "%s.summary.json", j->output_file);
+    snprintf(sumtmp, sizeof sumtmp, "%.4200s.tmp", summary);
+    w[nw].path = j->output_file, w[nw++].use = "the output";
+    w[nw].path = r->partial, w[nw++].use = "the output's temporary file";
+    w[nw].path = lockp, w[nw++].use = "the output's lock file";
+    w[nw].path = breakp, w[nw++].use = "the output's lock file";
+    w[nw].path = summary, w[nw++].use = "the run summary";
+    w[nw].path = sumtmp, w[nw++].use = "the run summary's temporary file";
+    dtx_path_guard_init(&g);
+    st = dtx_path_guard_add(&g, j->job_path, "the job file", err);
+    if (st == DTX_OK)
+        st = dtx_path_guard_add(&g, j->source_file, "/source/file", err);
+    for (int t = 0; t < j->ntargets && st == DTX_OK; t++) {
+        const dtx_job_target *tg = &j->targets[t];
+        char role[3][64];
+        snprintf(role[0], sizeof role[0], "/targets/%d/file", t);
+        snprintf(role[1], sizeof role[1], "/targets/%d/markers/csv", t);
+        snprintf(role[2], sizeof role[2], "/targets/%d/markers/file", t);
+        st = dtx_path_guard_add(&g, tg->file, role[0], err);
+        if (st == DTX_OK)
+            st = dtx_path_guard_add(&g, tg->markers.csv, role[1], err);
+        if (st == DTX_OK)
+            st = dtx_path_guard_add(&g, tg->markers.file, role[2], err);
+    }
+    int from_summary = 0; /* the failing path came from --summary */
+    for (int i = 0; i < nw && st == DTX_OK; i++)
+        if ((st = dtx_path_guard_check(&g, w[i].path, w[i].use, err)) != DTX_OK)
+            from_summary = i >= 4 && r->opts->summary_path;
+    dtx_path_guard_free(&g);
+    if (st == DTX_OK)
+        st = dtx_output_path_check(j->output_file, "the output", err);
+    if (st == DTX_OK)
+        st = dtx_output_path_check(r->partial, "the output's temporary file", err);
+    if (st == DTX_OK && (st = dtx_output_path_check(summary, "the run summary", err)) != DTX_OK)
+        from_summary = r->opts->summary_path != NULL;
+    if (st != DTX_OK && from_summary)
+        dtx_error_prefix(err, "--summary");
+    else if (st != DTX_OK && j->job_path)
+        dtx_error_prefix(err, "%s: /output/file", j->job_path);
+    return st;
+}
+
+/* Rank 0, holding the lock: an OUTPUT.partial found is one that dtx run
+ * created (it has the mark, or the run key of older versions); anything
+ * else there is refused, neither deleted nor continued. */
+static dtx_status check_partial_ours(run_state *r, dtx_error *err)
+{
+    struct stat sb;
+    hid_t f = H5I_INVALID_HID;
+    dtx_error e;
+    char *v = NULL;
+    int ours = 0;
+    if (lstat(r->partial, &sb) != 0)
+        return DTX_OK;
+    if (S_ISLNK(sb.st_mode))
+        return dtx_seterr(err, DTX_EIO,
+                          "%s is a symbolic link, not a partial output of dtx run: dtx does "
+                          "not delete or write through it; remove it or choose another output",
+                          r->partial);
+    if (dtx_h5_open(r->partial, MPI_COMM_NULL, 0, &f, &e) != DTX_OK)
+        return dtx_seterr(err, DTX_EIO,
+                          "%s exists and is not a partial output dtx can read (%s): dtx does not "
+                          "delete files it cannot recognise as its own; if it is what is left of "
+                          "a killed dtx run, remove it",
+                          r->partial, e.msg);
+    if (dtx_h5_read_attr_str(f, ".", PARTIAL_MARK, &v, &e) == DTX_OK ||
+        dtx_h5_read_attr_str(f, ".", "dtx_run_key", &v, &e) == DTX_OK)
+        ours = 1;
+    free(v);
+    dtx_h5_close(&f, NULL);
+    if (!ours)
+        return dtx_seterr(err, DTX_EIO,
+                          "%s exists but was not created by dtx run (no %s mark): dtx does not "
+                          "delete or overwrite it; move it away or choose another output",
+                          r->partial, PARTIAL_MARK);
+    return DTX_OK;
+}
+
+/* Before any input is read: the output paths are safe to write (rank 0
+ * checks, creates the output's directory and takes OUTPUT.lock), and a
+ * partial found there is dtx run's own.  Every rank gets the outcome. */
+static dtx_status take_output(run_state *r, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    char note[1600];
+    if (r->rank == 0) {
+        st = check_output_paths(r, err);
+        if (st == DTX_OK)
+            st = make_dirs(r->job.output_file, 1, err);
+        if (st == DTX_OK)
+            st = dtx_output_lock_acquire(r->job.output_file, r->opts->break_lock, &r->lock,
+                                         note, sizeof note, err);
+        if (st == DTX_OK && note[0])
+            fprintf(stderr, "dtx: %s\n", note);
+        if (st == DTX_OK)
+            st = check_partial_ours(r, err);
+    }
+    return agree(r->comm, st, err);
+}
+
+/* Rank 0, after a failure once the output was started (files closed):
+ * tells truthfully what is left.  A partial that reads back with this
+ * run's key is kept (its frames for --resume when the failure can go away,
+ * such as a full disk; its correspondences for a new run otherwise); one
+ * that does not read back is this run's own, useless, and removed.  The
+ * sentence is added to err's message as its second line, so that it
+ * follows the error itself. */
+static void partial_fate(run_state *r, const char *job_path, dtx_error *err)
+{
+    char note[12000];
+    size_t len;
+    hid_t f = H5I_INVALID_HID;
+    dtx_error e;
+    char *key = NULL, why[1200] = "";
+    int64_t done = 0, total = 0;
+    int readable = 0, cause_can_pass = err->code == DTX_EIO || err->code == DTX_ENOMEM ||
+                                       err->code == DTX_EMPI;
+    struct stat sb;
+    if (lstat(r->partial, &sb) != 0)
+        return;
+    if (dtx_h5_open(r->partial, MPI_COMM_NULL, 0, &f, &e) != DTX_OK) {
+        snprintf(why, sizeof why, "%s", e.msg);
+    } else if (dtx_h5_read_attr_str(f, ".", "dtx_run_key", &key, &e) != DTX_OK ||
+               strcmp(key, r->run_key) != 0) {
+        snprintf(why, sizeof why, "its setup was not finished");
+    } else {
+        readable = 1;
+        for (int t = 0; readable && t < r->nt; t++)
+            for (int s = 0; readable && s < r->ns; s++) {
+                char p[DTX_H5_PATH_MAX];
+                dtx_h5_result res;
+                int64_t c = 0;
+                uint8_t *flags;
+                snprintf(p, sizeof p, "/results/%s/%s", r->tg[t].tj->name, r->sq[s].name);
+                total += r->sq[s].seq.nframes;
+                if (dtx_h5_read_attr_int(f, p, "complete", &c, &e) == DTX_OK && c == 1) {
+                    done += r->sq[s].seq.nframes;
+                    continue;
+                }
+                /* An unfinished result is under its temporary name. */
+                if (dtx_h5_result_open(f, p, 1, &res, &e) != DTX_OK) {
+                    snprintf(why, sizeof why, "%s", e.msg);
+                    readable = 0;
+                    break;
+                }
+                flags = dtx_alloc((size_t)res.nframes, 1, 0);
+                if (!flags || dtx_h5_result_read_done(&res, flags, &e) != DTX_OK) {
+                    snprintf(why, sizeof why, "%s", flags ? e.msg : "out of memory");
+                    readable = 0;
+                }
+                for (int64_t i = 0; readable && i < res.nframes; i++)
+                    done += flags[i] == 1;
+                free(flags);
+                dtx_h5_result_close(&res);
+            }
+    }
+    free(key);
+    if (f >= 0)
+        dtx_h5_close(&f, NULL);
+    if (!readable && strstr(why, "already open")) {
+        /* HDF5 still holds it (it could not close it after the failure):
+         * the reopen judged nothing.  Left as it is; the next run reads
+         * it, or refuses it with a message. */
+        snprintf(note, sizeof note, "dtx: %s is left as it is: it could not be checked (%s)",
+                 r->partial, why);
+    } else if (!readable) {
+        /* Read back from disk after the failure: what is there now is
+         * what any later run would find. */
+        if (remove(r->partial) == 0)
+            snprintf(note, sizeof note, "dtx: removed %s, which this run created: it does not "
+                     "read back (%s), so no run could continue it", r->partial, why);
+        else
+            snprintf(note, sizeof note, "dtx: %s does not read back (%s) and cannot be removed "
+                     "(%s): remove it before the next run", r->partial, why, strerror(errno));
+    } else if (cause_can_pass) {
+        snprintf(note, sizeof note, "dtx: %s is kept: %lld of %lld frames done; once the cause "
+                 "above is fixed, `dtx run --resume %s` continues from there",
+                 r->partial, (long long)done, (long long)total, job_path);
+    } else {
+        snprintf(note, sizeof note, "dtx: %s is kept (%lld of %lld frames done, and its "
+                 "correspondences): `dtx run --resume` would meet the same error; once the input "
+                 "is corrected, `dtx run %s` starts the frames over and reuses the "
+                 "correspondences",
+                 r->partial, (long long)done, (long long)total, job_path);
+    }
+    len = strlen(err->msg);
+    snprintf(err->msg + len, sizeof err->msg - len, "\n%s", note);
 }
 
 /* Rank 0: fresh, resume or done. */
@@ -1134,6 +1356,8 @@ static dtx_status write_keypoint_sets(run_state *r, dtx_error *err)
     hid_t f = H5I_INVALID_HID;
     char srcdesc[4200];
     dtx_status st = dtx_h5_create(r->partial, MPI_COMM_NULL, &f, err);
+    if (st == DTX_OK)
+        st = mark_partial(r, f, err);
     snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
     for (int t = 0; t < r->nt && st == DTX_OK; t++)
         st = dtx_h5_write_markers(f, r->tg[t].kp_path, &r->tg[t].keys, srcdesc,
@@ -1170,6 +1394,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
         st = dtx_h5_open(r->partial, r->comm, 1, &r->out, err);
     } else {
         st = dtx_h5_create(r->partial, r->comm, &r->out, err);
+        if (agree(r->comm, st, err) == DTX_OK)
+            st = mark_partial(r, r->out, err);
     }
     if ((st = agree(r->comm, st, err)) != DTX_OK)
         goto done;
@@ -2052,6 +2278,8 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
         return st;
     snprintf(r.partial, sizeof r.partial, "%s.partial", r.job.output_file);
     r.align = r.job.method == DTX_METHOD_SPRINGS ? 1 : DTX_FRAME_ALIGN;
+    if ((st = take_output(&r, err)) != DTX_OK)
+        goto fail;
     if ((st = read_inputs(&r, err)) != DTX_OK)
         goto fail;
     {
@@ -2117,6 +2345,8 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             }
         }
     summarise(&r);
+    if (r.rank == 0)
+        dtx_output_lock_release(&r.lock);
     release(&r);
     return DTX_OK;
 
@@ -2124,11 +2354,13 @@ fail:
     if (r.rank == 0 && r.prog.out)
         dtx_progress_message(&r.prog, "");
     memset(&r.prog, 0, sizeof r.prog);
-    if (out_started && r.rank == 0 && !opts->quiet && access(r.partial, F_OK) == 0)
-        fprintf(stderr,
-                "dtx: the frames done so far are kept in %s; `dtx run --resume %s` continues "
-                "from there\n",
-                r.partial, job_path);
+    close_results(&r);
+    if (r.out >= 0)
+        dtx_h5_close(&r.out, NULL);
+    if (out_started && r.rank == 0)
+        partial_fate(&r, job_path, err);
+    if (r.rank == 0)
+        dtx_output_lock_release(&r.lock);
     release(&r);
     return st != DTX_OK ? st : err->code;
 }

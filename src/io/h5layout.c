@@ -12,6 +12,7 @@
 #include "h5layout.h"
 #include "h5mesh_attrs.h"
 #include "file_util.h"
+#include "write_reason.h"
 
 #include <errno.h>
 #include <fcntl.h>
@@ -86,14 +87,19 @@ static dtx_status failv(dtx_error *err, dtx_status code, hid_t id, const char *f
     int sys = errno;
     if (h5)
         h5_detail(detail, sizeof detail);
-    /* MPI-IO and HDF5 often lose the reason of a failed write; the system
-     * error says it when it is one that only writes give. */
-    if (h5 && !detail[0] &&
-        (sys == ENOSPC || sys == EFBIG || sys == EDQUOT || sys == EROFS || sys == EIO))
-        snprintf(detail, sizeof detail, "system: %s", strerror(sys));
     if (!fname)
         fname = dtx_h5_filename(id, name, sizeof name);
     vsnprintf(msg, sizeof msg, fmt, ap);
+    /* MPI-IO and HDF5 often lose the reason of a failed write (and errno
+     * with it): write_reason.h looks at the errno saved here, the file
+     * system's free space and the file-size limit. */
+    if (h5 && (strstr(msg, "write") || strstr(msg, "flush") || strstr(msg, "close") ||
+               strstr(msg, "creat") || strstr(msg, "extend") || strstr(detail, "write"))) {
+        char why[300];
+        size_t len = strlen(detail);
+        if (dtx_write_reason(fname, sys, why, sizeof why)[0] && !strstr(detail, why))
+            snprintf(detail + len, sizeof detail - len, "%ssystem: %s", len ? "; " : "", why);
+    }
     return dtx_seterr(err, code, "%s: %s%s%s%s%s%s", fname, path ? path : "", path ? ": " : "",
                       msg, detail[0] ? " (HDF5: " : "", detail, detail[0] ? ")" : "");
 }

@@ -20,15 +20,16 @@ ok() { echo "ok: [$1] $2"; pass=$((pass + 1)); }
 bad() { echo "FAILED: [$1] $2"; fails=$((fails + 1)); }
 
 # reject ROW OUTPUT PATTERN COMMAND...: non-zero exit, a message matching
-# PATTERN (extended regex), and neither OUTPUT nor OUTPUT.partial left.
+# PATTERN (extended regex), and neither OUTPUT nor OUTPUT.partial nor the
+# lock OUTPUT.lock left.
 reject() {
     local row=$1 out=$2 pattern=$3 msg rc; shift 3
     msg=$("$@" 2>&1); rc=$?
     if [ $rc -eq 0 ]; then bad "$row" "exit 0: $msg"; return; fi
     if [ $rc -gt 2 ]; then bad "$row" "exit $rc (a crash?): $msg"; return; fi
     if ! grep -qE -- "$pattern" <<<"$msg"; then bad "$row" "message lacks /$pattern/: $msg"; return; fi
-    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ]; }; then
-        bad "$row" "$out or $out.partial was left behind"; return
+    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ] || [ -e "$out.lock" ]; }; then
+        bad "$row" "$out, $out.partial or $out.lock was left behind"; return
     fi
     ok "$row" "$(head -1 <<<"$msg")"
 }
@@ -500,7 +501,7 @@ sed -i 's#"source": {"file": "in.h5"#"source": {"file": "sp_fifo.h5"#' j_spfifo.
 reject special-fifo j_spfifo.h5 'j_spfifo\.json: at /source/file: not a regular file \(a FIFO\)' \
     timeout 20 "$DTX" run j_spfifo.json
 reject special-fifo "" 'sp_fifo\.h5: not a regular file \(a FIFO\)' timeout 20 "$DTX" inspect sp_fifo.h5
-reject special-fifo "" 'sp_fifo\.h5: not a regular file \(a FIFO\)' \
+reject special-fifo "" 'sp_fifo\.h5 \(the output, -o\) is a FIFO: give a file name for it \(nothing was read or written\)' \
     timeout 20 "$DTX" import mesh src.obj -o sp_fifo.h5 --name m
 # /dev/zero and /dev/urandom under a 1 GiB address-space limit: refused
 # before anything is read (they used to grow a buffer to 4-8 GB).
@@ -588,6 +589,133 @@ reject job-version j_version.h5 'j_version\.json: at /dtx_job: expected 1, got 2
 job j_method src src tgt
 sed -i 's#"method": "sp04"#"method": "cloth"#' j_method.json
 reject job-method j_method.h5 'j_method\.json: at /method: expected one of sp04, multicomponent, springs, biharmonic, got "cloth"' "$DTX" run j_method.json
+
+# ---------------------------------------------------------- output paths
+# dtx never writes, renames over or deletes a path the job names as an
+# input, nor a partial it did not create; a bad output path is refused
+# before any input is read.
+unchanged() { # unchanged ROW FILE CKSUM: FILE still there with that checksum
+    if [ "$(cksum < "$2" 2>/dev/null)" = "$3" ]; then ok "$1" "$2 unchanged"
+    else bad "$1" "$2 was changed or removed"; fi
+}
+job j_outjob src src tgt
+sed -i 's#"file": "j_outjob.h5"#"file": "j_outjob.json"#' j_outjob.json
+sum=$(cksum < j_outjob.json)
+reject out-is-job-file "" 'j_outjob\.json: /output/file: .*j_outjob\.json \(the output\) is also an input \(the job file j_outjob\.json\)' \
+    "$DTX" run --quiet j_outjob.json
+unchanged out-is-job-file j_outjob.json "$sum"
+# The source file is named OUTPUT.partial of its own job.
+cp in.h5 j_outpart.h5.partial
+job j_outpart src src tgt
+sed -i 's#"source": {"file": "in.h5"#"source": {"file": "j_outpart.h5.partial"#' j_outpart.json
+sum=$(cksum < j_outpart.h5.partial)
+reject out-partial-is-input "" 'j_outpart\.h5\.partial \(the output.s temporary file\) is also an input \(/source/file' \
+    "$DTX" run --quiet j_outpart.json
+unchanged out-partial-is-input j_outpart.h5.partial "$sum"
+[ ! -e j_outpart.h5 ] && [ ! -e j_outpart.h5.lock ] && ok out-partial-is-input "no j_outpart.h5, no lock" ||
+    bad out-partial-is-input "j_outpart.h5 or its lock was written"
+# A file named OUTPUT.partial that dtx run did not create (a dtx file
+# without the mark, or not HDF5): refused, not deleted, also with --resume.
+job j_foreign src src tgt
+cp in.h5 j_foreign.h5.partial
+sum=$(cksum < j_foreign.h5.partial)
+reject out-partial-foreign "" 'j_foreign\.h5\.partial exists but was not created by dtx run \(no dtx_partial_of mark\): dtx does not delete or overwrite it' \
+    "$DTX" run --quiet j_foreign.json
+reject out-partial-foreign "" 'j_foreign\.h5\.partial exists but was not created by dtx run' \
+    "$DTX" run --quiet --resume j_foreign.json
+unchanged out-partial-foreign j_foreign.h5.partial "$sum"
+echo "notes" > j_foreign.h5.partial
+reject out-partial-foreign "" 'j_foreign\.h5\.partial exists and is not a partial output dtx can read .*not an HDF5 file.*does not delete files it cannot recognise' \
+    "$DTX" run --quiet j_foreign.json
+[ "$(cat j_foreign.h5.partial)" = notes ] && ok out-partial-foreign "the text file is kept" ||
+    bad out-partial-foreign "the text file named OUTPUT.partial was changed"
+# --summary naming an input (the summary is written aside and renamed over
+# its name): refused before anything is read.
+job j_sumin src src tgt
+sum=$(cksum < markers.csv)
+reject out-summary-is-input j_sumin.h5 'markers\.csv \(the run summary\) is also an input \(/targets/0/markers/csv' \
+    "$DTX" run --quiet --summary markers.csv j_sumin.json
+unchanged out-summary-is-input markers.csv "$sum"
+# An existing directory as the output: refused before any input is read
+# (the source here is not even HDF5, and that is not what is reported).
+job j_outdir src src tgt
+mkdir -p j_outdir.h5
+sed -i 's#"source": {"file": "in.h5"#"source": {"file": "h5_text.h5"#' j_outdir.json
+reject out-directory "" 'j_outdir\.json: /output/file: .*j_outdir\.h5 \(the output\) is a directory: give a file name for it \(nothing was read or written\)' \
+    "$DTX" run --quiet j_outdir.json
+[ -d j_outdir.h5 ] && [ ! -e j_outdir.h5.partial ] && [ ! -e j_outdir.h5.lock ] &&
+    ok out-directory "no j_outdir.h5.partial, no lock left" || bad out-directory "something was written"
+# The import commands: an output that is the mesh, a frame or the marker file.
+cp src.obj self.obj
+sum=$(cksum < self.obj)
+reject import-out-is-input "" 'self\.obj \(the output, -o\) is also an input \(the mesh file self\.obj\)' \
+    "$DTX" import mesh self.obj -o self.obj --name m
+reject import-out-is-input "" 'self\.obj \(the output, -o\) is also an input \(a frame file' \
+    "$DTX" import sequence src-1.obj ./self.obj -o self.obj --name s --mesh /meshes/src
+unchanged import-out-is-input self.obj "$sum"
+reject import-out-directory "" 'j_outdir\.h5 \(the output, -o\) is a directory' \
+    "$DTX" import mesh src.obj -o j_outdir.h5 --name m
+# A sequence of 0 frames (another program wrote it): the source is named.
+cp in.h5 seq0.h5
+"$PY" -c '
+import h5py
+with h5py.File("seq0.h5", "r+") as f:
+    s = f["/sequences/src"]; g = f.create_group("/sequences/empty")
+    g.attrs["nframes"] = s.attrs["nframes"] * 0; g.attrs["rest_mesh"] = s.attrs["rest_mesh"]
+    d = s["positions"]
+    g.create_dataset("positions", (0,) + d.shape[1:], dtype=d.dtype, chunks=d.chunks,
+                     maxshape=(None,) + d.shape[1:])
+    g.create_dataset("frame_names", (0,), dtype=s["frame_names"].dtype)
+    g["rest"] = h5py.SoftLink("/meshes/src")'
+job j_seq0 src empty tgt
+sed -i 's#"source": {"file": "in.h5"#"source": {"file": "seq0.h5"#' j_seq0.json
+reject seq-empty j_seq0.h5 'seq0\.h5: /sequences/empty has no frames \(0 frames\); a sequence needs at least 1' \
+    "$DTX" run --quiet j_seq0.json
+# Disk full: a small tmpfs when this machine lets us mount one (root), else
+# a file-size limit (ulimit -f, SIGXFSZ ignored by dtx: writes fail with
+# EFBIG).  The message names the system's reason; what is left is told
+# truthfully: a partial that reads back is kept and `--resume` completes it
+# once there is room, one that does not is removed.
+job j_full src src tgt
+mkdir -p full
+# (DTX_TEST_NO_TMPFS=1 takes the file-size limit here too.)
+if [ -z "${DTX_TEST_NO_TMPFS:-}" ] && mount -t tmpfs -o size=1m tmpfs full 2>/dev/null; then
+    trap 'umount "$W/full" 2>/dev/null' EXIT
+    how=tmpfs reason='No space left on device'
+    head -c 1000k /dev/zero > full/filler
+    sed -i 's#"file": "j_full.h5"#"file": "full/j_full.h5"#' j_full.json
+    limit=""
+else
+    how="ulimit -f" reason='File too large'
+    sed -i 's#"file": "j_full.h5"#"file": "full/j_full.h5"#' j_full.json
+    limit="ulimit -f 16;"
+fi
+echo "disk full simulated with: $how"
+msg=$(bash -c "$limit PMIX_MCA_gds=hash OMPI_MCA_btl=self exec '$DTX' run --quiet j_full.json" 2>&1); rc=$?
+if [ $rc -ne 1 ]; then bad disk-full "exit $rc: $msg"
+elif ! grep -q "full/j_full\.h5\.partial: .*system: $reason" <<<"$msg"; then bad disk-full "no '$reason' in: $msg"
+elif [ -e full/j_full.h5 ]; then bad disk-full "full/j_full.h5 appeared"
+elif [ -e full/j_full.h5.lock ]; then bad disk-full "the lock was left"
+elif [ -e full/j_full.h5.partial ]; then
+    if ! grep -q "j_full\.h5\.partial is kept: [0-9]* of 3 frames done; once the cause above is fixed, \`dtx run --resume j_full\.json\` continues" <<<"$msg"; then
+        bad disk-full "partial left without saying so truthfully: $msg"
+    else
+        rm -f full/filler
+        if "$DTX" run --quiet --resume j_full.json 2>/dev/null; then finite_valid disk-full full/j_full.h5 /results/tgt/src
+        else bad disk-full "--resume after freeing room failed"; fi
+    fi
+elif grep -q "removed .*j_full\.h5\.partial, which this run created: it does not read back" <<<"$msg"; then
+    ok disk-full "$(head -2 <<<"$msg" | tr '\n' ' ')"
+else
+    bad disk-full "partial removed without saying so: $msg"
+fi
+[ "$how" = tmpfs ] && umount full
+# A NaN in the input: --resume is not offered as the way on (it would stop
+# at the same frame).
+msg=$("$DTX" run --quiet j_h5_seqnan.json 2>&1)
+if grep -q 'is kept (0 of 3 frames done, and its correspondences): `dtx run --resume` would meet the same error' <<<"$msg" &&
+   ! grep -q 'continues from there' <<<"$msg"; then ok h5-seq-nonfinite "no --resume offered"
+else bad h5-seq-nonfinite "after a NaN input: $msg"; fi
 
 # -------------------------------------------------------------- topology
 job j_two src src tgt_two

@@ -46,6 +46,11 @@ for phase in read correspondence output transfer finish; do
     check "$phase fault: earlier output unchanged" test "$(cksum < "$W/out.h5")" = "$before"
 done
 grep -h "error" "$W/transfer.err" | head -n 2
+# What is left is told truthfully: the partial of the transfer fault reads
+# back with its frames done, and --resume is offered for it.
+check "transfer fault: the partial is said to be kept, with its frames done, for --resume" \
+    grep -q "out.h5.partial is kept: [0-9]* of 27 frames done; once the cause above is fixed, \`dtx run --resume .*job.json\` continues" \
+    "$W/transfer.err"
 
 # Disk full, simulated by a file-size limit below the result's size: the run
 # fails with a message naming the file, the old output survives.
@@ -60,6 +65,12 @@ check "file-size limit: non-zero exit ($rc), not a crash" test "$rc" -ne 0 -a "$
 check "file-size limit: message names the output and the reason" \
     grep -q "dtx: error: .*out.h5.partial: .*File too large" "$W/fsize.err"
 check "file-size limit: earlier output unchanged" test "$(cksum < "$W/out.h5")" = "$before"
+# Never "the frames are kept" for a partial that does not read back.
+fate() {
+    if [ -e "$W/out.h5.partial" ]; then grep -q "out.h5.partial is kept: [0-9]* of 27 frames done" "$W/fsize.err"
+    else grep -q "removed .*out.h5.partial, which this run created: it does not read back" "$W/fsize.err"; fi
+}
+check "file-size limit: what is left of the partial is said truthfully" fate
 head -c 400 "$W/fsize.err"; echo
 # The same run without the limit completes (resuming what was written).
 OMP_NUM_THREADS=1 "$DTX" run --quiet --resume "$W/job.json"

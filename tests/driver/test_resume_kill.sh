@@ -4,7 +4,8 @@
 # seconds, then `dtx run --resume` finishes it at another rank count. The
 # contract:
 #   - a killed run leaves no OUTPUT (an old OUTPUT stays as it was), at most
-#     OUTPUT.partial;
+#     OUTPUT.partial and its OUTPUT.lock (stale: its pid is gone, so
+#     --resume replaces it);
 #   - `dtx run --resume JOB` continues OUTPUT.partial and gives results
 #     bitwise equal to an uninterrupted run (positions, residual, frame_done
 #     and the correspondence), a valid file, no .partial left behind, and in
@@ -262,8 +263,9 @@ kill_point() { # kill_point FRACTION: kill a run at FRACTION of ref_ms, then res
         return 0
     fi
     echo "kill $i at ${delay_ms} ms (fraction $frac of the reference): killed"
-    check "kill $i: nothing but OUTPUT.partial left" \
-        test -z "$(leftovers "$W/k.h5" | grep -vx 'k\.h5\.partial' || true)"
+    # (The killed run's OUTPUT.lock stays; --resume replaces it as stale.)
+    check "kill $i: nothing but OUTPUT.partial and OUTPUT.lock left" \
+        test -z "$(leftovers "$W/k.h5" | grep -vxE 'k\.h5\.(partial|lock)' || true)"
     done_frames=0
     [ -e "$W/k.h5.partial" ] && done_frames=$($PY "$W/check.py" frames_done "$W/k.h5.partial")
     echo "  left: $(leftovers "$W/k.h5" | tr '\n' ' ')(frames marked done in it: $done_frames)"
