@@ -29,6 +29,7 @@
 #include "h5layout.h"
 #include "mdd.h"
 #include "meshfile.h"
+#include "path_guard.h"
 #include "pc2.h"
 
 #include <errno.h>
@@ -526,6 +527,25 @@ static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx
 /* The command                                                         */
 /* ------------------------------------------------------------------ */
 
+/* Every output is checked before the input is read: none may be the input
+ * file (dtx never writes over its inputs), and a file output may not be a
+ * directory or a special file. */
+static dtx_status check_outputs(const export_args *a, dtx_error *err)
+{
+    const char *files[4] = {a->obj_rest, a->pc2, a->mdd, a->glb};
+    const char *uses[4] = {"--obj-rest", "--pc2", "--mdd", "--glb"};
+    dtx_status st = DTX_OK;
+    for (int i = 0; i < 4 && st == DTX_OK; i++)
+        if (files[i]) {
+            st = dtx_path_guard_check_pair(a->input, "the input file", files[i], uses[i], err);
+            if (st == DTX_OK)
+                st = dtx_output_path_check(files[i], uses[i], err);
+        }
+    if (st == DTX_OK && a->obj_dir)
+        st = dtx_path_guard_check_pair(a->input, "the input file", a->obj_dir, "--obj-dir", err);
+    return st;
+}
+
 int dtx_cmd_export(int argc, char **argv)
 {
     export_args a;
@@ -545,7 +565,9 @@ int dtx_cmd_export(int argc, char **argv)
     s.stride = a.stride;
 
     /* ---- input, then every check before the first output */
-    st = dtx_h5_open(a.input, MPI_COMM_NULL, 0, &f, &err);
+    st = check_outputs(&a, &err);
+    if (st == DTX_OK)
+        st = dtx_h5_open(a.input, MPI_COMM_NULL, 0, &f, &err);
     if (st == DTX_OK)
         st = source_open(f, a.input, a.item, &s, &mesh, &err);
     if (st == DTX_OK && a.glb && exported_frames(&s) > a.max_frames) {

@@ -15,6 +15,7 @@
 
 #include "h5layout.h"
 #include "meshfile.h"
+#include "path_guard.h"
 #include "render.h"
 
 #include <errno.h>
@@ -918,6 +919,15 @@ static int run_render(int argc, char **argv, dtx_error *capture)
         return usage_or_keep(&a, msg);
     if (a.cols && parse_int(a.cols, 1, MAX_FRAMES, &cols) != 0)
         return usage_or_keep(&a, "render: --cols must be a number of columns in 1..1024");
+    {
+        /* The picture never replaces the input (dtx never writes over its
+         * inputs), a directory or a special file. */
+        dtx_error err;
+        if (dtx_path_guard_check_pair(a.input, "the input file", a.out, "the picture, -o",
+                                      &err) != DTX_OK ||
+            dtx_output_path_check(a.out, "the picture, -o", &err) != DTX_OK)
+            return fail_or_keep(&a, &err);
+    }
     if (has_mesh_extension(a.input))
         return render_mesh_file(&a, &o);
     return render_h5(&a, &o, cols);

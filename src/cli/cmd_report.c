@@ -19,6 +19,7 @@
 #include "file_util.h"
 #include "cmd_render.h"
 #include "h5layout.h"
+#include "path_guard.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -557,6 +558,24 @@ int dtx_cmd_report(int argc, char **argv)
             return usage("report: the report name is too long");
     }
     pic_link = base_name(pic_dir);
+    {
+        /* The page and its pictures never replace an input (the result
+         * file, the run summary): dtx never writes over its inputs. */
+        dtx_path_guard g;
+        dtx_path_guard_init(&g);
+        st = dtx_path_guard_add(&g, a.input, "the result file", &err);
+        if (st == DTX_OK)
+            st = dtx_path_guard_add(&g, sum_path, "the run summary", &err);
+        if (st == DTX_OK)
+            st = dtx_path_guard_check(&g, out, "the report page", &err);
+        if (st == DTX_OK && !a.no_pictures)
+            st = dtx_path_guard_check(&g, pic_dir, "the pictures folder", &err);
+        dtx_path_guard_free(&g);
+        if (st == DTX_OK)
+            st = dtx_output_path_check(out, "the report page", &err);
+        if (st != DTX_OK)
+            return fail(&err);
+    }
 
     found = dtx_alloc(RESULTS_MAX, sizeof *found, 0);
     if (!found) {

@@ -211,4 +211,18 @@ for nm in .. . .dtx-tmp-k; do
         "$DTX" keypoints in.h5 --mesh /meshes/src --sequence /sequences/walk --name "$nm"
 done
 
+# export, render and report never write over their input: an output naming
+# the input file (also through a symbolic link) is refused before anything is
+# read, and the input is unchanged.
+cp out.h5 keep.h5 && ln -sf out.h5 out-link.h5
+for o in --pc2 --mdd --glb --obj-rest; do
+    expect out-is-input 1 "out-link\.h5 \($o\) is also an input \(the input file out\.h5\): dtx does not write over" \
+        "$DTX" export out.h5 $R $o out-link.h5
+done
+expect out-is-input 1 "out\.h5 \(the picture, -o\) is also an input \(the input file out\.h5\)" "$DTX" render out.h5 $R -o out.h5
+expect out-is-input 1 "out\.h5 \(the report page\) is also an input \(the result file out\.h5\)" "$DTX" report out.h5 -o out.h5 --no-pictures
+expect out-is-input 1 "out\.h5\.summary\.json \(the report page\) is also an input \(the run summary out\.h5\.summary\.json\)" \
+    "$DTX" report out.h5 -o out.h5.summary.json --no-pictures
+check "[out-is-input] the input is unchanged" cmp -s out.h5 keep.h5
+
 finish
