@@ -2,18 +2,24 @@
 # Bad input through the command line: each case must fail with a non-zero
 # exit, a message naming the file and the problem, and leave no output.
 set -uo pipefail
+. "$DTX_SRC/tests/lib.sh"
 W="$DTX_TESTDATA"
 D="$DTX_BUILD/data/sumner-cat-lion"
 pass=0 fails=0
 expect_fail() { # expect_fail NAME OUTPUT-THAT-MUST-NOT-EXIST PATTERN COMMAND...
-    local name=$1 out=$2 pattern=$3; shift 3
+    local name=$1 out=$2 pattern=$3 row; shift 3
     local msg rc
-    msg=$("$@" 2>&1); rc=$?
-    if [ $rc -eq 0 ]; then echo "FAILED: $name: exit 0"; fails=$((fails + 1)); return; fi
+    row="cli-bad-input:${name// /-}"
+    msg=$(bounded "$@" 2>&1); rc=$?
+    if [ $rc -eq 0 ]; then census "$row" false-success; echo "FAILED: $name: exit 0"; fails=$((fails + 1)); return; fi
+    if [ $rc -eq 124 ]; then census "$row" hang; echo "FAILED: $name: no answer in 120 s"; fails=$((fails + 1)); return; fi
+    if [ $rc -gt 2 ]; then census "$row" crash; echo "FAILED: $name: exit $rc (a crash?)"; fails=$((fails + 1)); return; fi
     if ! grep -qE -- "$pattern" <<<"$msg"; then
+        census "$row" unclear-message
         echo "FAILED: $name: message lacks /$pattern/: $msg"; fails=$((fails + 1)); return
     fi
-    if [ -n "$out" ] && [ -e "$out" ]; then echo "FAILED: $name: $out was left behind"; fails=$((fails + 1)); return; fi
+    if [ -n "$out" ] && [ -e "$out" ]; then census "$row" leftovers; echo "FAILED: $name: $out was left behind"; fails=$((fails + 1)); return; fi
+    census "$row" clear-error
     echo "ok: $name: $msg" | head -1; pass=$((pass + 1))
 }
 

@@ -8,6 +8,7 @@
 # [row-id]; the table cites the tags.  Rows already covered by
 # cli.bad_input are not repeated here.
 set -uo pipefail
+. "$DTX_SRC/tests/lib.sh"
 # Runs that must not allocate before checking sizes do so under a 1 GiB
 # address-space limit; a sanitizer build reserves terabytes of shadow memory
 # at start, so there the limit is left off (the plain build checks it).
@@ -24,13 +25,17 @@ bad() { echo "FAILED: [$1] $2"; fails=$((fails + 1)); }
 # lock OUTPUT.lock left.
 reject() {
     local row=$1 out=$2 pattern=$3 msg rc; shift 3
-    msg=$("$@" 2>&1); rc=$?
-    if [ $rc -eq 0 ]; then bad "$row" "exit 0: $msg"; return; fi
-    if [ $rc -gt 2 ]; then bad "$row" "exit $rc (a crash?): $msg"; return; fi
-    if ! grep -qE -- "$pattern" <<<"$msg"; then bad "$row" "message lacks /$pattern/: $msg"; return; fi
-    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ] || [ -e "$out.lock" ]; }; then
-        bad "$row" "$out, $out.partial or $out.lock was left behind"; return
+    msg=$(bounded "$@" 2>&1); rc=$?
+    if [ $rc -eq 0 ]; then census "$row" false-success; bad "$row" "exit 0: $msg"; return; fi
+    if [ $rc -eq 124 ]; then census "$row" hang; bad "$row" "no answer in 120 s (a hang?): $msg"; return; fi
+    if [ $rc -gt 2 ]; then census "$row" crash; bad "$row" "exit $rc (a crash?): $msg"; return; fi
+    if ! grep -qE -- "$pattern" <<<"$msg"; then
+        census "$row" unclear-message; bad "$row" "message lacks /$pattern/: $msg"; return
     fi
+    if [ -n "$out" ] && { [ -e "$out" ] || [ -e "$out.partial" ] || [ -e "$out.lock" ]; }; then
+        census "$row" leftovers; bad "$row" "$out, $out.partial or $out.lock was left behind"; return
+    fi
+    census "$row" clear-error
     ok "$row" "$(head -1 <<<"$msg")"
 }
 
@@ -38,11 +43,13 @@ reject() {
 # message (warning) matching it.
 accept() {
     local row=$1 pattern=$2 msg rc; shift 2
-    msg=$("$@" 2>&1); rc=$?
-    if [ $rc -ne 0 ]; then bad "$row" "exit $rc: $msg"; return 1; fi
+    msg=$(bounded "$@" 2>&1); rc=$?
+    if [ $rc -eq 124 ]; then census "$row" hang; bad "$row" "no answer in 120 s (a hang?)"; return 1; fi
+    if [ $rc -ne 0 ]; then census "$row" accept-failed; bad "$row" "exit $rc: $msg"; return 1; fi
     if [ -n "$pattern" ] && ! grep -qE -- "$pattern" <<<"$msg"; then
-        bad "$row" "message lacks /$pattern/: $msg"; return 1
+        census "$row" unclear-message; bad "$row" "message lacks /$pattern/: $msg"; return 1
     fi
+    census "$row" accepted
     ok "$row" "$(grep -E -- "${pattern:-.}" <<<"$msg" | head -1)"
 }
 

@@ -16,9 +16,17 @@ cd "$W" || exit 1
 # stderr) matching PATTERN (extended regex).
 expect() {
     local row=$1 want=$2 pattern=$3 msg rc; shift 3
-    msg=$("$@" 2>&1); rc=$?
-    if [ "$rc" -ne "$want" ]; then echo "FAILED: [$row] exit $rc (want $want): $*: $msg"; fails=$((fails + 1)); return; fi
-    if ! grep -qE -- "$pattern" <<<"$msg"; then echo "FAILED: [$row] output lacks /$pattern/: $msg"; fails=$((fails + 1)); return; fi
+    msg=$(bounded "$@" 2>&1); rc=$?
+    if [ "$rc" -ne "$want" ]; then
+        case $rc in 0) census "$row" false-success ;; 124) census "$row" hang ;;
+                    1|2) census "$row" accept-failed ;; *) census "$row" crash ;; esac
+        echo "FAILED: [$row] exit $rc (want $want): $*: $msg"; fails=$((fails + 1)); return
+    fi
+    if ! grep -qE -- "$pattern" <<<"$msg"; then
+        census "$row" unclear-message
+        echo "FAILED: [$row] output lacks /$pattern/: $msg"; fails=$((fails + 1)); return
+    fi
+    if [ "$want" -eq 0 ]; then census "$row" accepted; else census "$row" clear-error; fi
     echo "ok: [$row] $(grep -E -- "$pattern" <<<"$msg" | head -1)"
 }
 
