@@ -4,7 +4,8 @@
 # Usage: scripts/demo.sh
 #   Sets up, builds build/, unpacks the bundled meshes into build/data, imports
 #   them into build/demo/cat-lion.h5, runs jobs/cat-lion.json under mpirun,
-#   validates the result and draws a contact sheet of it (build/demo/cat-lion.png).
+#   validates the result, draws a contact sheet of it (build/demo/cat-lion.png),
+#   writes the report and exports the result for Blender (build/demo/blender/).
 #   Safe to re-run (build/demo/cat-lion.h5 is rebuilt).
 # Environment:
 #   DTX_NP                MPI ranks (default 2)
@@ -74,6 +75,10 @@ run "validate $result" "$dtx" validate "$result"
 run "render a contact sheet of the result" "$dtx" render "$result" /results/lion/cat-poses \
     -o "$demo/cat-lion.png"
 run "write the job report" "$dtx" report "$result" -o "$demo/report.md"
+mkdir -p "$demo/blender"
+run "export for Blender (README: Using results in Blender)" "$dtx" export "$result" \
+    /results/lion/cat-poses --obj-rest "$demo/blender/lion.obj" --pc2 "$demo/blender/lion.pc2" \
+    --mdd "$demo/blender/lion.mdd" --glb "$demo/blender/lion.glb"
 
 step="report"
 echo
@@ -81,6 +86,7 @@ echo "demo: done"
 echo "  input:        $h5"
 echo "  result:       $result"
 echo "  report:       $demo/report.md (pictures in $demo/report-pictures/)"
+echo "  for Blender:  $demo/blender/ (lion.glb; lion.obj with lion.pc2 or lion.mdd)"
 if [[ -d $demo/lion-obj ]]; then
     echo "  OBJ frames:   $demo/lion-obj/ ($(find "$demo/lion-obj" -name '*.obj' | wc -l) files)"
 else
