@@ -1,0 +1,14 @@
+/*
+ * cmd_view.h: `dtx view`, the browser workbench: a self-contained HTML page
+ * that plays a source sequence and its results side by side, or lets a
+ * user pick marker pairs on two meshes by clicking (src/io/html_view.h).
+ */
+#ifndef DTX_CMD_VIEW_H
+#define DTX_CMD_VIEW_H
+
+/* Runs `dtx view` with main's argc/argv (argv[1] == "view").  Returns 0
+ * when the page was written, 1 on an error (message on stderr, no page
+ * left), 2 on a usage error. */
+int dtx_cmd_view(int argc, char **argv);
+
+#endif /* DTX_CMD_VIEW_H */
