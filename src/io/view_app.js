@@ -78,6 +78,8 @@
   // ------------------------------------------------------------ camera
   const orbit = { target: new THREE.Vector3(), dist: radius * 3.2, theta: 0.6, phi: 1.3 };
   function placeCamera() {
+    // Never straight up or down, where lookAt has no defined roll.
+    orbit.phi = Math.max(0.02, Math.min(Math.PI - 0.02, orbit.phi));
     const s = Math.sin(orbit.phi);
     camera.position.set(orbit.target.x + orbit.dist * s * Math.sin(orbit.theta),
                         orbit.target.y + orbit.dist * Math.cos(orbit.phi),
@@ -324,7 +326,7 @@
     });
     return { pane: a.P.i, v: best };
   }
-  let drag = null;
+  let drag = null, lastClick = null;
   renderer.domElement.addEventListener('pointerdown', function (e) {
     drag = { x: e.clientX, y: e.clientY, moved: false, button: e.button, shift: e.shiftKey };
   });
@@ -350,6 +352,7 @@
     drag = null;
     if (d && !d.moved && d.button === 0 && pick) {
       const h = vertexAt(e.clientX, e.clientY);
+      lastClick = { x: e.clientX, y: e.clientY, pane: h ? h.pane : null, v: h ? h.v : null };
       if (h) clickVertex(h.pane, h.v);
     }
   });
@@ -403,7 +406,7 @@
   function hover(h) {
     let k = -1;
     if (h) k = pairs.findIndex(function (p) { return h.pane === 0 ? p.s === h.v : p.t === h.v; });
-    if (k !== hot) { hot = k; refresh(); }
+    if (k !== hot) { hot = k; refresh(false); }
   }
   function csvLabel(s) {
     s = String(s).replace(/[\r\n]+/g, ' ');
@@ -415,7 +418,11 @@
     pairs.forEach(function (p) { t += p.s + ',' + p.t + ',' + csvLabel(p.label) + '\n'; });
     return t;
   }
-  function refresh() {
+  // Balls (and list classes) from the state; the list's rows are rebuilt
+  // only when the pairs change (list = true), so hovering a row never
+  // replaces the element under the mouse.
+  let rows = [];
+  function refresh(list) {
     clearBalls();
     if (pick) {
       pairs.forEach(function (p, k) {
@@ -429,17 +436,19 @@
       });
       if (pending.s !== null) addBall(panes[0], pending.s, 'pending', 'next: ' + pending.s, false);
       if (pending.t !== null) addBall(panes[1], pending.t, 'pending', 'next: ' + pending.t, false);
-      listBody.textContent = '';
-      pairs.forEach(function (p, k) {
-        const tr = el('tr', listBody);
-        if (k === selected) tr.className = 'dtx-sel';
-        else if (k === hot) tr.className = 'dtx-hot';
-        el('td', tr, k + 1); el('td', tr, p.s); el('td', tr, p.t); el('td', tr, p.label);
-        tr.addEventListener('click', function () { selected = selected === k ? -1 : k; refresh(); });
-        tr.addEventListener('mouseenter', function () { hot = k; refresh(); });
-        tr.addEventListener('mouseleave', function () { if (hot === k) { hot = -1; refresh(); } });
-      });
-      countText.textContent = pairs.length + ' pairs';
+      if (list !== false) {
+        listBody.textContent = '';
+        rows = pairs.map(function (p, k) {
+          const tr = el('tr', listBody);
+          el('td', tr, k + 1); el('td', tr, p.s); el('td', tr, p.t); el('td', tr, p.label);
+          tr.addEventListener('click', function () { selected = selected === k ? -1 : k; refresh(false); });
+          tr.addEventListener('mouseenter', function () { hot = k; refresh(false); });
+          tr.addEventListener('mouseleave', function () { if (hot === k) { hot = -1; refresh(false); } });
+          return tr;
+        });
+        countText.textContent = pairs.length + ' pairs';
+      }
+      rows.forEach(function (tr, k) { tr.className = k === selected ? 'dtx-sel' : k === hot ? 'dtx-hot' : ''; });
     } else if (data.markers) {
       panes.forEach(function (P) {
         if (!P.p.markerSide) return;
@@ -516,19 +525,40 @@
     w.project(camera);
     return { x: b.left + r.x + (w.x + 1) / 2 * r.w, y: b.top + r.y + (1 - w.y) / 2 * r.h, z: w.z };
   }
-  // Turns the shared camera to look at vertex v of pane i along its normal,
-  // from close by (what a user does before clicking a hidden spot).
+  // Turns the shared camera to look at vertex v of pane i from close by,
+  // from the first direction in which nothing hides it (its normal, the
+  // opposite, then the axes and diagonals): what a user does by orbiting and
+  // zooming before clicking a spot.  Returns whether v is in plain sight.
   function aim(i, v, distance) {
     const P = panes[i];
     P.geom.computeVertexNormals();
     const nrm = P.geom.attributes.normal;
     const n = new THREE.Vector3(nrm.getX(v), nrm.getY(v), nrm.getZ(v)).normalize();
-    orbit.target.set(P.pos[3 * v], P.pos[3 * v + 1], P.pos[3 * v + 2]).add(P.mesh.position);
-    orbit.dist = distance || radius * 0.25;
-    orbit.phi = Math.acos(Math.max(-1, Math.min(1, n.y)));
-    orbit.theta = Math.atan2(n.x, n.z);
-    placeCamera();
+    const dirs = [n, n.clone().negate()];
+    for (let x = -1; x <= 1; x++) for (let y = -1; y <= 1; y++) for (let z = -1; z <= 1; z++)
+      if (x || y || z) dirs.push(new THREE.Vector3(x, y, z).normalize());
+    const target = new THREE.Vector3(P.pos[3 * v], P.pos[3 * v + 1], P.pos[3 * v + 2]).add(P.mesh.position);
+    const ray = new THREE.Raycaster();
+    orbit.dist = distance || radius * 0.05;
+    for (let k = 0; k <= dirs.length; k++) {
+      const d = dirs[k === dirs.length ? 0 : k];
+      if (!(d.lengthSq() > 0)) continue;
+      orbit.target.copy(target);
+      orbit.phi = Math.acos(Math.max(-1, Math.min(1, d.y)));
+      orbit.theta = Math.atan2(d.x, d.z);
+      placeCamera();
+      if (k === dirs.length) break;
+      // The same ray a click at the pane's centre casts.
+      camera.aspect = paneRect(i).w / paneRect(i).h;
+      camera.updateProjectionMatrix();
+      ray.setFromCamera(new THREE.Vector2(0, 0), camera);
+      const len = target.distanceTo(camera.position);
+      const hit = ray.intersectObject(P.mesh, false)[0];
+      if (hit && Math.abs(hit.distance - len) <= len * 1e-4 &&
+          [hit.face.a, hit.face.b, hit.face.c].indexOf(v) >= 0) { render(); return true; }
+    }
     render();
+    return false;
   }
   window.dtxView = Object.freeze({
     panes: panes.length,
@@ -542,5 +572,6 @@
     pairs: function () { return JSON.parse(JSON.stringify(pairs)); },
     pending: function () { return Object.assign({}, pending); },
     csv: csv,
+    lastClick: function () { return lastClick && Object.assign({}, lastClick); },
   });
 })();
