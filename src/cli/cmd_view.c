@@ -444,7 +444,9 @@ int dtx_cmd_view(int argc, char **argv)
         if ((st = resolve(&fs, specs[i], &d->file, d->path, &err)) != DTX_OK)
             goto done;
         if (!dtx_h5_path_exists(d->file, d->path)) {
-            st = dtx_seterr(&err, DTX_EINVAL, "%s: no object %s", specs[i], d->path);
+            char fname[512];
+            st = dtx_seterr(&err, DTX_EINVAL, "%s: %s: no such object",
+                            dtx_h5_filename(d->file, fname, sizeof fname), d->path);
             goto done;
         }
         if ((st = pane_open(d, &fs, &err)) != DTX_OK)
