@@ -76,7 +76,13 @@
   });
 
   // ------------------------------------------------------------ camera
-  const orbit = { target: new THREE.Vector3(), dist: radius * 3.2, theta: 0.6, phi: 1.3 };
+  const home = { dist: radius * 3.2, theta: 0.6, phi: 1.3 };
+  const orbit = { target: new THREE.Vector3(), dist: home.dist, theta: home.theta, phi: home.phi };
+  function resetView() {
+    orbit.target.set(0, 0, 0);
+    orbit.dist = home.dist; orbit.theta = home.theta; orbit.phi = home.phi;
+    placeCamera();
+  }
   function placeCamera() {
     // Never straight up or down, where lookAt has no defined roll.
     orbit.phi = Math.max(0.02, Math.min(Math.PI - 0.02, orbit.phi));
@@ -126,7 +132,7 @@
   }
   function addBall(P, v, kind, label, hot) {
     const obj = new THREE.Mesh(ballGeom, hot ? ballMats.hot : ballMats[kind]);
-    obj.scale.setScalar(radius * (hot ? 0.018 : 0.011));
+    obj.userData.hot = hot;
     P.balls.add(obj);
     const b = { pane: P, v: v, obj: obj, div: null };
     if (label) b.div = el('div', labelLayer, label, 'dtx-label' + (hot ? ' dtx-hot' : ''));
@@ -134,8 +140,11 @@
   }
   function placeBalls() {
     const w = new THREE.Vector3();
+    // Balls keep about the same size on screen as the camera zooms in.
+    const size = Math.min(radius * 0.011, orbit.dist * 0.004);
     balls.forEach(function (b) {
       const P = b.pane;
+      b.obj.scale.setScalar(size * (b.obj.userData.hot ? 1.6 : 1));
       b.obj.position.set(P.pos[3 * b.v], P.pos[3 * b.v + 1], P.pos[3 * b.v + 2]);
       if (!b.div) return;
       b.div.style.display = showLabels ? '' : 'none';
@@ -201,7 +210,7 @@
     });
     colour();
     if (slider) slider.value = String(frame);
-    if (frameText && nframes) frameText.textContent = 'frame ' + longest.p.frame[Math.min(frame, longest.p.nframes - 1)] + ' of ' + data.fileFrames;
+    if (frameText && nframes) frameText.textContent = 'frame ' + longest.p.frame[Math.min(frame, longest.p.nframes - 1)] + ' of 0..' + (data.fileFrames - 1);
     dirty = true;
   }
 
@@ -267,6 +276,7 @@
     el('span', bar, data.fileFrames + ' frames in the file, ' + nframes + ' in the page' +
        (data.stride > 1 ? ' (every ' + data.stride + 'th; budget --max-frames ' + data.maxFrames + ')' : ' (budget --max-frames ' + data.maxFrames + ')'), 'dtx-note');
   }
+  el('button', bar, 'Reset view').addEventListener('click', resetView);
   const wf = control(bar, 'wireframe', 'input', 'checkbox');
   wf.addEventListener('change', function () { panes.forEach(function (P) { P.mat.wireframe = wf.checked; }); dirty = true; });
   const flat = control(bar, 'flat', 'input', 'checkbox');
@@ -331,7 +341,7 @@
     drag = { x: e.clientX, y: e.clientY, moved: false, button: e.button, shift: e.shiftKey };
   });
   window.addEventListener('pointermove', function (e) {
-    if (!drag) { if (pick) hover(vertexAt(e.clientX, e.clientY)); return; }
+    if (!drag) { if (pick && e.target === renderer.domElement) hover(vertexAt(e.clientX, e.clientY)); return; }
     const dx = e.clientX - drag.x, dy = e.clientY - drag.y;
     if (!drag.moved && Math.abs(dx) + Math.abs(dy) < 4) return;
     drag.moved = true;
@@ -427,7 +437,9 @@
     if (pick) {
       pairs.forEach(function (p, k) {
         const isHot = k === hot || k === selected;
-        const lab = (k + 1) + (p.label ? ' ' + p.label : '');
+        // Numbers on the balls (the list has the labels), the whole label on
+        // the pair under the cursor or selected.
+        const lab = String(k + 1) + (isHot && p.label ? ' ' + p.label : '');
         addBall(panes[0], p.s, 'src', lab, isHot);
         addBall(panes[1], p.t, 'tgt', lab, isHot);
       });

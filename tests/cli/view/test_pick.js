@@ -70,6 +70,9 @@ function check(what, ok, detail) {
     check('Download CSV saved ' + csvPath, csv.length > 0);
     check('it starts with "# index_base: 0"', csv.startsWith('# index_base: 0\n'));
     check('the rest is the shipped marker file byte for byte', csv.replace(/^# index_base: 0\n/, '') === shipped);
+    await page.evaluate(() => { for (const b of document.querySelectorAll('button')) if (b.textContent === 'Reset view') b.click(); });
+    await page.hover('#dtx-side tbody tr:nth-child(20)');
+    await new Promise((r) => setTimeout(r, 100));
     await page.screenshot({ path: path.join(outDir, 'pick.png') });
     check('no console error, failed request or dialog', problems.length === 0 && dialogs.length === 0, problems.concat(dialogs).join('; '));
   } finally {
