@@ -210,11 +210,6 @@ static dtx_status pane_open(pane_data *d, const file_set *fs, dtx_error *err)
         snprintf(sub, sizeof sub, "%s/target", d->path);
         if ((st = dtx_h5_read_mesh(d->file, sub, &d->mesh, err)) != DTX_OK)
             return st;
-        if (dtx_h5_read_attr_str(d->file, d->path, "target_mesh", &attr, err) == DTX_OK) {
-            d->group = dupf(fname, attr);
-            free(attr);
-            attr = NULL;
-        }
         if (dtx_h5_read_attr_str(d->file, d->path, "method", &attr, err) == DTX_OK) {
             d->info = dupf("method ", attr);
             free(attr);
@@ -236,8 +231,15 @@ static dtx_status pane_open(pane_data *d, const file_set *fs, dtx_error *err)
     } else {
         if ((st = dtx_h5_read_mesh(d->file, d->path, &d->mesh, err)) != DTX_OK)
             return st;
-        d->group = dupf(fname, d->path);
         d->pane.kind = "mesh";
+    }
+    /* Panes on the same mesh (by content, whichever file holds it) can be
+     * compared vertex by vertex. */
+    {
+        char hex[17];
+        dtx_hash_hex(dtx_mesh_hash(&d->mesh), hex);
+        if (!(d->group = dupf("mesh ", hex)))
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory");
     }
     return DTX_OK;
 }

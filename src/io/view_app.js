@@ -78,7 +78,13 @@
   // ------------------------------------------------------------ camera
   const home = { dist: radius * 3.2, theta: 0.6, phi: 1.3 };
   const orbit = { target: new THREE.Vector3(), dist: home.dist, theta: home.theta, phi: home.phi };
+  // Far enough for the largest mesh to fit a pane of either shape.
+  function homeDistance() {
+    const r = paneRect(0), aspect = r.w / Math.max(1, r.h);
+    return radius * 1.1 / Math.tan(camera.fov * Math.PI / 360) / Math.min(1, aspect);
+  }
   function resetView() {
+    home.dist = homeDistance();
     orbit.target.set(0, 0, 0);
     orbit.dist = home.dist; orbit.theta = home.theta; orbit.phi = home.phi;
     placeCamera();
@@ -110,6 +116,7 @@
       const r = paneRect(i);
       P.title.style.left = (r.x + 4) + 'px';
       P.sub.style.left = (r.x + 4) + 'px';
+      P.title.style.maxWidth = P.sub.style.maxWidth = Math.max(0, r.w - 20) + 'px';
     });
     dirty = true;
   }
@@ -245,7 +252,7 @@
           max = Math.max(max, d[j / 3]);
         }
         for (let j = 0; j < n; j += 3) rampAt(max > 0 ? d[j / 3] / max : 0, c, j);
-        P.sub.textContent = P.sub.textContent.replace(/, largest distance.*$/, '') + ', largest distance to ' + Q.p.title + ' ' + fmt(max);
+        P.sub.textContent = P.sub.textContent.replace(/, largest distance .*$/, '') + ', largest distance ' + fmt(max) + ' to ' + Q.p.title;
       } else {
         c.fill(0.75);
       }
@@ -524,7 +531,7 @@
 
   // ------------------------------------------------------------ start
   resize();
-  placeCamera();
+  resetView();
   if (nframes > 0) setFrame(0);
   refresh();
   requestAnimationFrame(tick);
