@@ -77,6 +77,27 @@ check "downloaded CSV imports" "$DTX" import markers markers.csv --index-base 0 
 check "dtx run with the picked markers" job /markers/picked out-picked.h5
 check "same result as with the shipped markers" "$DTX" diff out.h5 out-picked.h5 /results/lion/cat-poses --tol 0
 
+# ---- key points: each is offered as the next source, one click per pair
+cp cl.h5 kp.h5
+/usr/bin/python3 - << 'PY'
+import h5py, numpy as np
+with h5py.File("kp.h5", "r+") as f:
+    v = np.array([2653, 2620, 2141], dtype="<i4")
+    g = f.create_group("/keypoints/cat-keys")
+    g["vertex"] = v
+    g["position"] = f["/meshes/cat/vertices"][:][v]
+    g.create_dataset("label", data=["paw a", "paw b", "paw c"], dtype=h5py.string_dtype())
+    g["error"] = np.array([0.5, 0.25], dtype="<f8")
+    for k, x in (("source_mesh", "/meshes/cat"), ("source_sequences", "/sequences/cat-poses"),
+                 ("dtx_version", "test")):
+        g.attrs.create(k, x, dtype=h5py.string_dtype())
+    g.attrs.create("candidates", 3, dtype="<i4")
+    g.attrs.create("eps", 0.0, dtype="<f8")
+    g.attrs.create("error", 0.25, dtype="<f8")
+PY
+check "key-point page written" "$DTX" view kp.h5 --pick /meshes/cat /meshes/lion -o keypoints.html
+check "key points: one click per pair" node "$V/test_keypoints.js" keypoints.html 2653,1316 2620,1412 2141,920
+
 # ---- hostile names and labels
 N1='c"a<t>&'"'"'x'
 N2='<img src=x onerror=alert(3)>lion'
