@@ -385,9 +385,30 @@ static dtx_status find_keypoints(hid_t f, const char *named, const char *src,
 
 /* ------------------------------------------------------------ command */
 
+static int view_run(const view_args *ap, const char *report);
+
 int dtx_cmd_view(int argc, char **argv)
 {
     view_args a;
+    int rc = parse_args(argc, argv, &a);
+    return rc ? rc : view_run(&a, NULL);
+}
+
+int dtx_view_report(const char *input, const char *out, const char *markdown)
+{
+    view_args a;
+    memset(&a, 0, sizeof a);
+    a.input = input;
+    a.out = out;
+    a.max_frames = DEFAULT_MAX_FRAMES;
+    return view_run(&a, markdown);
+}
+
+/* Reads what a names and writes the page (with the report text, when not
+ * NULL).  Returns the exit status. */
+static int view_run(const view_args *ap, const char *report)
+{
+    view_args a = *ap;
     file_set fs;
     dtx_error err;
     dtx_status st = DTX_OK;
@@ -397,11 +418,9 @@ int dtx_cmd_view(int argc, char **argv)
     dtx_markers mk;
     dtx_h5_keypoints kp;
     char **specs = NULL, kp_where[DTX_H5_PATH_MAX] = "", mk_path[DTX_H5_PATH_MAX];
-    int nspecs = 0, npd = 0, rc;
+    int nspecs = 0, npd = 0;
     int64_t tmax = 0, stride = 1, nemb = 0;
 
-    if ((rc = parse_args(argc, argv, &a)) != 0)
-        return rc;
     memset(&fs, 0, sizeof fs);
     memset(pd, 0, sizeof pd);
     memset(&pg, 0, sizeof pg);
@@ -513,6 +532,7 @@ int dtx_cmd_view(int argc, char **argv)
     pg.file_frames = tmax;
     pg.stride = stride;
     pg.max_frames = a.max_frames;
+    pg.report = report;
     st = dtx_view_write(a.out, &pg, &err);
 
 done:

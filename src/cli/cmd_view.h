@@ -11,4 +11,10 @@
  * left), 2 on a usage error. */
 int dtx_cmd_view(int argc, char **argv);
 
+/* `dtx report FILE.h5 -o REPORT.html`: the player of FILE.h5's results (as
+ * `dtx view FILE.h5` without objects shows them) with the report's Markdown
+ * text below it, written to out.  Returns the exit status as dtx_cmd_view
+ * does. */
+int dtx_view_report(const char *input, const char *out, const char *markdown);
+
 #endif /* DTX_CMD_VIEW_H */

@@ -238,7 +238,8 @@ static const dtx_cli_cmd render = {
 };
 
 static const dtx_cli_opt report_opts[] = {
-    {"-o", "REPORT.md", "the page to write (default FILE.report.md, pictures in FILE.report-pictures/)"},
+    {"-o", "REPORT.md", "the page to write (default FILE.report.md, pictures in FILE.report-pictures/); "
+                        "REPORT.html: a browser page with the results' player (dtx view) instead of pictures"},
     {"--summary", "FILE.json", "the run summary to read (default FILE.h5.summary.json)"},
     {"--count", "N", "frames per contact sheet (1..1024)"},
     {"--no-pictures", NULL, "no contact sheets"},

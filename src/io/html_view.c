@@ -564,6 +564,10 @@ dtx_status dtx_view_write(const char *path, const dtx_view_page *pg, dtx_error *
         }
         fputs("]}", jf);
     }
+    if (pg->report && !bad) {
+        fputs(",\"report\":", jf);
+        bad |= put_str(jf, pg->report);
+    }
     fputs("}", jf);
     if (fclose(jf) != 0)
         bad = 1;

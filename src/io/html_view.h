@@ -69,6 +69,9 @@ typedef struct {
     char *const *keypoint_labels; /* nkeypoints labels, or NULL */
     int32_t nkeypoints;
     const char *keypoints_name;
+    const char *report;          /* Markdown text shown below the player (its
+                                    headings, lists and tables drawn as such,
+                                    everything else as text), or NULL */
 } dtx_view_page;
 
 /* 1 when this dtx carries three.js (it was found at build time), else 0;

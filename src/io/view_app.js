@@ -37,6 +37,37 @@
   el('span', bar, data.file, 'dtx-file');
   document.title = 'dtx view: ' + data.file;
 
+  // ------------------------------------------------------------ report
+  // The Markdown of `dtx report` below the player: headings, list items,
+  // tables and paragraphs made with textContent (no markup from the text is
+  // ever interpreted); `code` spans shown as code.
+  if (data.report) {
+    app.className = 'dtx-with-report';
+    const rep = el('div', app); rep.id = 'dtx-report';
+    const inline = function (parent, text) {
+      text.split('`').forEach(function (part, k) { if (part) el(k % 2 ? 'code' : 'span', parent, part); });
+    };
+    let table = null, list = null;
+    data.report.split('\n').forEach(function (line) {
+      const h = /^(#{1,4}) (.*)$/.exec(line);
+      if (!/^\|/.test(line)) table = null;
+      if (!/^- /.test(line)) list = null;
+      if (h) el('h' + Math.min(4, h[1].length + 1), rep, h[2]);
+      else if (/^\|/.test(line)) {
+        if (/^\|[-| :]+\|$/.test(line)) return;
+        const head = !table;
+        if (!table) table = el('table', rep);
+        const tr = el('tr', table);
+        line.replace(/^\||\|$/g, '').split(/(?<!\\)\|/).forEach(function (c) { inline(el(head ? 'th' : 'td', tr), c.trim().replace(/\\\|/g, '|')); });
+      } else if (/^- /.test(line)) {
+        if (!list) list = el('ul', rep);
+        inline(el('li', list), line.slice(2));
+      } else if (/^!\[/.test(line) || line.trim() === '') {
+        return;
+      } else inline(el('p', rep), line);
+    });
+  }
+
   // ------------------------------------------------------------ panes
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio || 1);

@@ -12,8 +12,10 @@
 #   result as with the shipped markers;
 # - a page from a file with hostile names and labels (markup, quotes,
 #   </script>) runs none of it and shows it as written;
+# - `dtx report out.h5 -o report.html`: the player with the report's text;
 # - bad input: exit 1, a message naming the problem, no page left.
-# Screenshots (player.png, player-strided.png, pick.png, hostile.png) stay in
+# Screenshots (player.png, player-strided.png, pick.png, hostile.png,
+# report.png) stay in
 # the scratch directory as artefacts.  Without chromium, node or
 # puppeteer-core the test is skipped, except in CI (CI=true), where it fails.
 set -uo pipefail
@@ -68,6 +70,12 @@ check "strided page written" "$DTX" view out.h5 /results/lion/cat-poses cl.h5:/s
 check "strided page embeds frames 0,3,6 (stride 3)" grep -q '"stride":3,"maxFrames":4' strided.html
 check "strided player: slider and frames" node "$V/test_player.js" strided.html "$W/player-strided.png" \
     "0=$W/out.h5:/results/lion/cat-poses" "1=$W/cl.h5:/sequences/cat-poses"
+
+# ---- dtx report in HTML: the player above the report's text
+check "HTML report written" "$DTX" report out.h5 -o report.html
+check "HTML report: player and report text, nothing else runs" node "$V/test_hostile.js" report.html \
+    "$W/report.png" "dtx report: out.h5" "/results/lion/cat-poses" "method: sp04" "frames: 9, 9 done, complete"
+check "HTML report: no pictures directory" test ! -e report-pictures
 
 # ---- picking the 55 markers again
 check "pick page written" "$DTX" view cl.h5 --pick /meshes/cat /meshes/lion -o pick.html

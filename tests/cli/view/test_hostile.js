@@ -1,5 +1,5 @@
-// test_hostile.js PAGE.html SHOT.png TEXT...: a page made from a file whose
-// names and labels are hostile (markup, quotes, script) loads with no dialog,
+// test_hostile.js PAGE.html SHOT.png TEXT...: a page (made from a file whose
+// names and labels may be hostile: markup, quotes, script) loads with no dialog,
 // no console error (a script the page did not ship would be refused by its
 // Content-Security-Policy, which logs one) and no failed request; no
 // element other than the page's own appears (no <img>, no extra <script>),
