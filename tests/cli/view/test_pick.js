@@ -59,6 +59,18 @@ function check(what, ok, detail) {
     const afterUndo = await page.evaluate(() => window.dtxView.pairs());
     check('undo (ctrl+z) brings it back', afterUndo.length === rows.length && afterUndo[2].s === rows[2].s);
 
+    // Move: select row 3, click another target vertex (row 5's), undo.
+    await page.click('#dtx-side tbody tr:nth-child(3)');
+    const q = await page.evaluate((v) => { window.dtxView.aim(1, v); return window.dtxView.project(1, v); }, rows[4].t);
+    await page.mouse.click(q.x, q.y);
+    const moved = await page.evaluate(() => window.dtxView.pairs());
+    check('a click with row 3 selected moves its target end', moved[2].t === rows[4].t && moved[2].s === rows[2].s && moved.length === rows.length,
+          JSON.stringify(moved[2]));
+    await page.keyboard.press('Escape');
+    await page.keyboard.down('Control'); await page.keyboard.press('z'); await page.keyboard.up('Control');
+    const back = await page.evaluate(() => window.dtxView.pairs());
+    check('undo puts it back', back[2].t === rows[2].t);
+
     // The real download.
     const cdp = await page.target().createCDPSession();
     await cdp.send('Page.setDownloadBehavior', { behavior: 'allow', downloadPath: path.resolve(outDir) });
