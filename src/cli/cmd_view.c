@@ -107,8 +107,6 @@ static int parse_args(int argc, char **argv, view_args *a)
         return usage("needs -o PAGE.html");
     if (a->pick_src && a->nobjects)
         return usage("--pick takes its two meshes only, no other objects");
-    if (a->keypoints && !a->pick_src)
-        return usage("--keypoints goes with --pick");
     return 0;
 }
 
@@ -515,9 +513,13 @@ static int view_run(const view_args *ap, const char *report)
     } else
         for (int i = 0; i < npd; i++)
             panes[i].marker_side = 0;
-    if (a.pick_src) {
-        if ((st = find_keypoints(fs.id[0], a.keypoints, pd[0].path, &kp, kp_where, &err)) !=
-            DTX_OK)
+    if (a.pick_src || a.keypoints) {
+        hid_t kf = fs.id[0];
+        char kpath[DTX_H5_PATH_MAX];
+        if (a.keypoints && (st = resolve(&fs, a.keypoints, &kf, kpath, &err)) != DTX_OK)
+            goto done;
+        if ((st = find_keypoints(kf, a.keypoints ? kpath : NULL, pd[0].path, &kp, kp_where,
+                                 &err)) != DTX_OK)
             goto done;
         pg.keypoints = kp.vertex;
         pg.keypoint_labels = kp.label;

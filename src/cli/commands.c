@@ -295,7 +295,7 @@ static const dtx_cli_opt view_opts[] = {
     {"-o", "PAGE.html", "the page to write (one self-contained HTML file)"},
     {"--pick", "/meshes/SRC /meshes/TGT", "pick marker pairs on these two meshes instead of playing"},
     {"--markers", "/markers/M", "show these markers (or OTHER.h5:/markers/M); with --pick: start from them"},
-    {"--keypoints", "/keypoints/K", "--pick: offer these key points (default: those of SRC, if any)"},
+    {"--keypoints", "/keypoints/K", "show these key points on the sequences; --pick: offer them as sources (default: those of SRC)"},
     {"--max-frames", "N", "frame budget: at most N frames in the page, strided to fit (default 300)"},
     {"--stride", "K", "embed frames 0, K, 2K, ... (default: the smallest that fits the budget)"},
     {NULL, NULL, NULL},
@@ -304,8 +304,8 @@ static const dtx_cli_opt view_opts[] = {
 static const dtx_cli_cmd view = {
     "view",
     "write a browser page: play results beside their source, or pick markers by clicking",
-    "dtx view FILE.h5 [OBJECT...] -o PAGE.html [--markers /markers/M] [--max-frames N]\n"
-    "         [--stride K]\n"
+    "dtx view FILE.h5 [OBJECT...] -o PAGE.html [--markers /markers/M] [--keypoints /keypoints/K]\n"
+    "         [--max-frames N] [--stride K]\n"
     "dtx view FILE.h5 --pick /meshes/SRC /meshes/TGT -o PAGE.html [--markers /markers/M]\n"
     "         [--keypoints /keypoints/K]",
     "One HTML file that works opened from disk, with no server and no network.\n"

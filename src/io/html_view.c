@@ -298,14 +298,20 @@ static dtx_status check_page(const char *path, const dtx_view_page *pg, dtx_erro
                                       p->title ? p->title : "?", m->nv);
             }
     }
-    for (int32_t j = 0; j < pg->nkeypoints; j++)
-        if (pg->keypoints[j] < 0 || pg->keypoints[j] >= pg->panes[0].mesh->nv)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "%s: key point %d: vertex %d is out of range of %s "
-                              "(%d vertices)",
-                              pg->keypoints_name ? pg->keypoints_name : "key points", j,
-                              pg->keypoints[j], pg->panes[0].title ? pg->panes[0].title : "?",
-                              pg->panes[0].mesh->nv);
+    /* Key points are drawn on the source mesh when picking, else on every
+     * sequence. */
+    for (int i = 0; i < pg->npanes; i++) {
+        const dtx_view_pane *p = &pg->panes[i];
+        if (pg->pick ? i != 0 : !(p->kind && strcmp(p->kind, "sequence") == 0))
+            continue;
+        for (int32_t j = 0; j < pg->nkeypoints; j++)
+            if (pg->keypoints[j] < 0 || pg->keypoints[j] >= p->mesh->nv)
+                return dtx_seterr(err, DTX_ERANGE,
+                                  "%s: key point %d: vertex %d is out of range of %s "
+                                  "(%d vertices)",
+                                  pg->keypoints_name ? pg->keypoints_name : "key points", j,
+                                  pg->keypoints[j], p->title ? p->title : "?", p->mesh->nv);
+    }
     return DTX_OK;
 }
 

@@ -499,11 +499,14 @@
         countText.textContent = pairs.length + ' pairs';
       }
       rows.forEach(function (tr, k) { tr.className = k === selected ? 'dtx-sel' : k === hot ? 'dtx-hot' : ''; });
-    } else if (data.markers) {
+    } else {
       panes.forEach(function (P) {
-        if (!P.p.markerSide) return;
-        const vs = P.p.markerSide === 1 ? data.markers.src : data.markers.tgt;
-        vs.forEach(function (v, k) { addBall(P, v, P.p.markerSide === 1 ? 'src' : 'tgt', data.markers.label[k] || String(k + 1), false); });
+        if (data.markers && P.p.markerSide) {
+          const vs = P.p.markerSide === 1 ? data.markers.src : data.markers.tgt;
+          vs.forEach(function (v, k) { addBall(P, v, P.p.markerSide === 1 ? 'src' : 'tgt', data.markers.label[k] || String(k + 1), false); });
+        }
+        if (keypoints && P.p.kind === 'sequence')
+          keypoints.vertex.forEach(function (v, k) { addBall(P, v, 'key', 'key ' + (k + 1) + (keypoints.label[k] ? ' ' + keypoints.label[k] : ''), false); });
       });
     }
     dirty = true;

@@ -105,6 +105,9 @@ with h5py.File("kp.h5", "r+") as f:
 PY
 check "key-point page written" "$DTX" view kp.h5 --pick /meshes/cat /meshes/lion -o keypoints.html
 check "key points: one click per pair" node "$V/test_keypoints.js" keypoints.html 2653,1316 2620,1412 2141,920
+check "player with key points written" "$DTX" view out.h5 -o player-kp.html --keypoints kp.h5:/keypoints/cat-keys
+check "player shows the key points' labels" node "$V/test_hostile.js" player-kp.html "$W/player-kp.png" \
+    "key 1 paw a" "key 3 paw c"
 
 # ---- hostile names and labels
 N1='c"a<t>&'"'"'x'

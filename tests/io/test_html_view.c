@@ -182,6 +182,20 @@ static void test_page(void)
     CHECK_EQ_INT(dtx_view_write(path, &pg, &err), DTX_ENONFINITE);
     CHECK(strstr(err.msg, "frame 5, vertex 0 is not finite") != NULL);
     frames[13] = 0;
+    {
+        int32_t kv[1] = {9};
+        pg.keypoints = kv;
+        pg.nkeypoints = 1;
+        pg.keypoints_name = "/keypoints/k";
+        p.kind = "sequence"; /* key points are drawn on sequences */
+        CHECK_EQ_INT(dtx_view_write(path, &pg, &err), DTX_ERANGE);
+        CHECK(strstr(err.msg, "/keypoints/k: key point 0: vertex 9 is out of range") != NULL);
+        p.kind = "result"; /* not drawn on results: not checked against them */
+        CHECK_OK(dtx_view_write(path, &pg, &err), &err);
+        unlink(path);
+        pg.keypoints = NULL;
+        pg.nkeypoints = 0;
+    }
     pg.pick = 1;
     CHECK_EQ_INT(dtx_view_write(path, &pg, &err), DTX_EINVAL);
     CHECK(strstr(err.msg, "picking needs 2 panes") != NULL);
