@@ -15,6 +15,7 @@
 
 #include <math.h>
 #include <stdio.h>
+#include <zlib.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -351,14 +352,41 @@ static int put_pane(FILE *f, FILE *json, int *nblobs, const dtx_view_pane *p)
         }
         for (int a = 0; a < 3; a++)
             step[a] = (hi[a] - lo[a]) / 65535.0;
-        for (size_t k = 0; k < total; k++) {
-            int a = (int)(k % 3);
-            double q = step[a] > 0 ? floor((p->frames[k] - lo[a]) / step[a] + 0.5) : 0;
-            unsigned u = q < 0 ? 0 : q > 65535 ? 65535 : (unsigned)q;
-            b[2 * k] = (unsigned char)u;
-            b[2 * k + 1] = (unsigned char)(u >> 8);
+        {
+            /* 16-bit steps; each frame minus the one before (modulo 2^16);
+             * low bytes, then high bytes; gzip.  Smooth motion leaves small
+             * differences whose high bytes are mostly 0 or 255. */
+            uint16_t *q = malloc(total * sizeof *q);
+            unsigned char *z = NULL;
+            uLongf zn = compressBound((uLong)(total * 2)) + 64;
+            z_stream zs;
+            if (q && (z = malloc(zn))) {
+                for (size_t k = 0; k < total; k++) {
+                    int a = (int)(k % 3);
+                    double v = step[a] > 0 ? floor((p->frames[k] - lo[a]) / step[a] + 0.5) : 0;
+                    q[k] = (uint16_t)(v < 0 ? 0 : v > 65535 ? 65535 : v);
+                }
+                for (size_t k = total; k-- > nc;)
+                    q[k] = (uint16_t)(q[k] - q[k - nc]);
+                for (size_t k = 0; k < total; k++) {
+                    b[k] = (unsigned char)q[k];
+                    b[total + k] = (unsigned char)(q[k] >> 8);
+                }
+                memset(&zs, 0, sizeof zs);
+                /* windowBits 15 + 16: a gzip stream (DecompressionStream('gzip')). */
+                if (deflateInit2(&zs, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) == Z_OK) {
+                    zs.next_in = b;
+                    zs.avail_in = (uInt)(total * 2);
+                    zs.next_out = z;
+                    zs.avail_out = (uInt)zn;
+                    if (deflate(&zs, Z_FINISH) == Z_STREAM_END)
+                        bq = put_blob(f, nblobs, z, zs.total_out);
+                    deflateEnd(&zs);
+                }
+            }
+            free(q);
+            free(z);
         }
-        bq = put_blob(f, nblobs, b, total * 2);
     }
     free(b);
     if (bf < 0 || br < 0 || (p->nframes > 0 && bq < 0))

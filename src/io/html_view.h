@@ -26,7 +26,9 @@
  * Frame data: faces as int32 and rest positions as float32, little-endian,
  * base64; frames quantised per pane and axis to 16 bits over the pane's
  * bounding box of the embedded frames (error at most half a step:
- * extent / 131070 per axis).
+ * extent / 131070 per axis), each frame stored as its difference to the one
+ * before (modulo 2^16), low bytes then high bytes, gzip-compressed (the page
+ * inflates them with the browser's DecompressionStream).
  */
 #ifndef DTX_HTML_VIEW_H
 #define DTX_HTML_VIEW_H

@@ -1,7 +1,7 @@
 // view_app.js: the viewer of a `dtx view` page (src/io/html_view.h).  It
 // runs after three.js in the page's one module script, with three's exports
 // in THREE.  Everything it shows of the data goes in through textContent.
-(function () {
+(async function () {
   'use strict';
   const data = JSON.parse(document.getElementById('dtx-data').textContent);
   const pick = data.mode === 'pick';
@@ -68,6 +68,19 @@
     });
   }
 
+  // Frames: 16-bit steps over the pane's box, each frame stored as its
+  // difference to the one before (modulo 2^16), low bytes then high bytes,
+  // gzip (html_view.h).
+  async function frames(p) {
+    const s = new Blob([bytes(p.frames)]).stream().pipeThrough(new DecompressionStream('gzip'));
+    const u8 = new Uint8Array(await new Response(s).arrayBuffer());
+    const n = u8.length / 2, per = p.nv * 3, q = new Uint16Array(n);
+    for (let k = 0; k < n; k++) q[k] = u8[k] | (u8[n + k] << 8);
+    for (let k = per; k < n; k++) q[k] = (q[k] + q[k - per]) & 0xffff;
+    return q;
+  }
+  const decoded = await Promise.all(data.panes.map(function (p) { return p.nframes > 0 ? frames(p) : null; }));
+
   // ------------------------------------------------------------ panes
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio || 1);
@@ -77,7 +90,7 @@
   const panes = data.panes.map(function (p, i) {
     const faces = new Uint32Array(bytes(p.faces));
     const rest = new Float32Array(bytes(p.rest));
-    const q = p.nframes > 0 ? new Uint16Array(bytes(p.frames)) : null;
+    const q = decoded[i];
     const pos = new Float32Array(rest);
     const geom = new THREE.BufferGeometry();
     geom.setAttribute('position', new THREE.BufferAttribute(pos, 3));
@@ -627,4 +640,4 @@
     csv: csv,
     lastClick: function () { return lastClick && Object.assign({}, lastClick); },
   });
-})();
+})().catch(function (e) { console.error('dtx view: ' + (e && e.stack || e)); });
