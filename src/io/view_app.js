@@ -469,6 +469,20 @@
     if (h) k = pairs.findIndex(function (p) { return h.pane === 0 ? p.s === h.v : p.t === h.v; });
     if (k !== hot) { hot = k; refresh(false); }
   }
+  // The vertex of pane P nearest to vertex v reflected across the plane
+  // through P's box centre normal to axis a (0, 1, 2).
+  function mirrorVertex(P, v, a) {
+    const c = -P.mesh.position.getComponent(a);
+    const x = [P.pos[3 * v], P.pos[3 * v + 1], P.pos[3 * v + 2]];
+    x[a] = 2 * c - x[a];
+    let best = v, bd = Infinity;
+    for (let j = 0; j < P.pos.length; j += 3) {
+      const dx = P.pos[j] - x[0], dy = P.pos[j + 1] - x[1], dz = P.pos[j + 2] - x[2];
+      const d = dx * dx + dy * dy + dz * dz;
+      if (d < bd) { bd = d; best = j / 3; }
+    }
+    return best;
+  }
   function csvLabel(s) {
     s = String(s).replace(/[\r\n]+/g, ' ');
     if (/[",]/.test(s) || s !== s.trim()) return '"' + s.replace(/"/g, '""') + '"';
@@ -537,6 +551,12 @@
     const bUndo = el('button', row, 'Undo');
     const bNone = el('button', row, 'Deselect');
     const bCsv = el('button', row, 'Download CSV');
+    // Symmetry helper: the selected (else the last) pair mirrored across the
+    // plane through each mesh's box centre, normal to the chosen axis.
+    const mrow = el('div', side);
+    const bMirror = el('button', mrow, 'Add mirrored pair');
+    const axis = control(mrow, ' across', 'select');
+    ['x', 'y', 'z'].forEach(function (a) { const o = el('option', axis, a); o.value = a; });
     status = el('div', side, '', 'dtx-status');
     countText = el('div', side, '');
     const table = el('table', side);
@@ -554,6 +574,18 @@
     bUndo.addEventListener('click', function () {
       if (!undo.length) return;
       pairs = JSON.parse(undo.pop()); selected = -1; say('undone'); refresh();
+    });
+    bMirror.addEventListener('click', function () {
+      const k = selected >= 0 ? selected : pairs.length - 1;
+      if (k < 0) return;
+      const a = { x: 0, y: 1, z: 2 }[axis.value], p = pairs[k];
+      const s = mirrorVertex(panes[0], p.s, a), t = mirrorVertex(panes[1], p.t, a);
+      const swap = { left: 'right', right: 'left', Left: 'Right', Right: 'Left', LEFT: 'RIGHT', RIGHT: 'LEFT' };
+      snapshot();
+      pairs.push({ s: s, t: t, label: String(p.label).replace(/left|right/gi, function (w) { return swap[w] || w; }) });
+      selected = -1;
+      say('pair ' + pairs.length + ': mirror of pair ' + (k + 1) + ', ' + s + ' -> ' + t);
+      refresh();
     });
     bNone.addEventListener('click', function () { selected = -1; pending = { s: null, t: null }; refresh(); });
     bCsv.addEventListener('click', function () {

@@ -71,6 +71,22 @@ function check(what, ok, detail) {
     const back = await page.evaluate(() => window.dtxView.pairs());
     check('undo puts it back', back[2].t === rows[2].t);
 
+    // Mirror: pair 1 across each axis of the cat's box; the new ends are
+    // the vertices nearest to the reflected ones, the label's left is right.
+    const pos = [await page.evaluate(() => window.dtxView.positions(0)), await page.evaluate(() => window.dtxView.positions(1))];
+    const nearest = (P, x) => { let b = -1, bd = Infinity; for (let j = 0; j < P.length; j += 3) { const d = (P[j] - x[0]) ** 2 + (P[j + 1] - x[1]) ** 2 + (P[j + 2] - x[2]) ** 2; if (d < bd) { bd = d; b = j / 3; } } return b; };
+    const centre = (P, a) => { let lo = Infinity, hi = -Infinity; for (let j = a; j < P.length; j += 3) { lo = Math.min(lo, P[j]); hi = Math.max(hi, P[j]); } return (lo + hi) / 2; };
+    const mirrorOf = (P, v, a) => { const x = [P[3 * v], P[3 * v + 1], P[3 * v + 2]]; x[a] = 2 * centre(P, a) - x[a]; return nearest(P, x); };
+    await page.click('#dtx-side tbody tr:nth-child(1)');
+    await page.select('#dtx-side select', 'x');
+    await page.evaluate(() => { for (const b of document.querySelectorAll('button')) if (b.textContent === 'Add mirrored pair') b.click(); });
+    const mir = await page.evaluate(() => window.dtxView.pairs());
+    const m = mir[mir.length - 1];
+    const mwant = { s: mirrorOf(pos[0], rows[0].s, 0), t: mirrorOf(pos[1], rows[0].t, 0), label: rows[0].label.replace(/left/g, 'right') };
+    check('mirrored pair ' + JSON.stringify(m), mir.length === rows.length + 1 && JSON.stringify(m) === JSON.stringify(mwant), JSON.stringify(mwant));
+    await page.keyboard.down('Control'); await page.keyboard.press('z'); await page.keyboard.up('Control');
+    check('undo removes it', (await page.evaluate(() => window.dtxView.pairs())).length === rows.length);
+
     // The real download.
     const cdp = await page.target().createCDPSession();
     await cdp.send('Page.setDownloadBehavior', { behavior: 'allow', downloadPath: path.resolve(outDir) });
