@@ -18,6 +18,7 @@
 #include "atomic_file.h"
 #include "file_util.h"
 #include "cmd_render.h"
+#include "cmd_view.h"
 #include "h5layout.h"
 #include "path_guard.h"
 
@@ -537,10 +538,15 @@ int dtx_cmd_report(int argc, char **argv)
     dtx_atomic_file af = {0};
     dtx_error err;
     dtx_status st;
-    int n = 0;
+    int n = 0, html;
+    char *md = NULL;
+    size_t md_n = 0;
 
     if ((msg = parse_args(argc, argv, &a)) != NULL)
         return usage(msg);
+    html = a.out && strlen(a.out) > 5 && strcmp(a.out + strlen(a.out) - 5, ".html") == 0;
+    if (html)
+        a.no_pictures = 1;
     if (a.out)
         snprintf(out, sizeof out, "%s", a.out);
     else if (derive(a.input, ".report.md", out, sizeof out) != 0)
@@ -595,7 +601,14 @@ int dtx_cmd_report(int argc, char **argv)
                         strerror(errno));
         goto done;
     }
-    if ((st = dtx_atomic_open(&af, out, &err)) != DTX_OK)
+    if (html) {
+        /* REPORT.html: the same text, below a player of the results (which
+         * takes the place of the contact sheets); cmd_view.h writes it. */
+        if (!(af.fp = open_memstream(&md, &md_n))) {
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+            goto done;
+        }
+    } else if ((st = dtx_atomic_open(&af, out, &err)) != DTX_OK)
         goto done;
     fprintf(af.fp, "# dtx report: %s\n\n", base_name(a.input));
     fprintf(af.fp, "File `%s`, %d result(s). Written by `dtx report` (dtx %s).\n\n", a.input, n,
@@ -609,13 +622,27 @@ int dtx_cmd_report(int argc, char **argv)
                 base_name(sum_path));
     for (int i = 0; i < n && i < RESULTS_MAX && st == DTX_OK; i++)
         st = write_result(af.fp, h, &a, found[i], pic_dir, pic_link, &err);
-    if (st == DTX_OK)
+    if (html) {
+        int bad = fclose(af.fp) != 0;
+        af.fp = NULL;
+        if (st == DTX_OK && bad)
+            st = dtx_seterr(&err, DTX_ENOMEM, "out of memory");
+        if (st == DTX_OK && dtx_view_report(a.input, out, md) != 0) {
+            free(md);
+            md = NULL;
+            cJSON_Delete(sum);
+            free(found);
+            dtx_h5_close(&h, NULL);
+            return 1; /* dtx_view_report printed the message */
+        }
+    } else if (st == DTX_OK)
         st = dtx_atomic_commit(&af, &err);
     else
         dtx_atomic_abort(&af);
     if (st == DTX_OK)
         fprintf(stderr, "dtx: report: %s\n", out);
 done:
+    free(md);
     cJSON_Delete(sum);
     free(found);
     dtx_h5_close(&h, NULL);

@@ -252,7 +252,8 @@ static const dtx_cli_cmd render = {
 };
 
 static const dtx_cli_opt report_opts[] = {
-    {"-o", "REPORT.md", "the page to write (default FILE.report.md, pictures in FILE.report-pictures/)"},
+    {"-o", "REPORT.md", "the page to write (default FILE.report.md, pictures in FILE.report-pictures/); "
+                        "REPORT.html: a browser page with the results' player (dtx view) instead of pictures"},
     {"--summary", "FILE.json", "the run summary to read (default FILE.h5.summary.json)"},
     {"--count", "N", "frames per contact sheet (1..1024)"},
     {"--no-pictures", NULL, "no contact sheets"},
@@ -306,6 +307,35 @@ static const dtx_cli_cmd generate = {
     1,
 };
 
+static const dtx_cli_opt view_opts[] = {
+    {"-o", "PAGE.html", "the page to write (one self-contained HTML file)"},
+    {"--pick", "/meshes/SRC /meshes/TGT", "pick marker pairs on these two meshes instead of playing"},
+    {"--markers", "/markers/M", "show these markers (or OTHER.h5:/markers/M); with --pick: start from them"},
+    {"--keypoints", "/keypoints/K", "show these key points on the sequences; --pick: offer them as sources (default: those of SRC)"},
+    {"--max-frames", "N", "frame budget: at most N frames in the page, strided to fit (default 300)"},
+    {"--stride", "K", "embed frames 0, K, 2K, ... (default: the smallest that fits the budget)"},
+    {NULL, NULL, NULL},
+};
+
+static const dtx_cli_cmd view = {
+    "view",
+    "write a browser page: play results beside their source, or pick markers by clicking",
+    "dtx view FILE.h5 [OBJECT...] -o PAGE.html [--markers /markers/M] [--keypoints /keypoints/K]\n"
+    "         [--max-frames N] [--stride K]\n"
+    "dtx view FILE.h5 --pick /meshes/SRC /meshes/TGT -o PAGE.html [--markers /markers/M]\n"
+    "         [--keypoints /keypoints/K]",
+    "One HTML file that works opened from disk, with no server and no network.\n"
+    "OBJECTs are /results/T/S, /sequences/S or /meshes/M, or OTHER.h5:PATH; without\n"
+    "them every result of FILE.h5 is shown after the source sequence it was made\n"
+    "from.  With --pick, click a point on the source, then on the target, to make a\n"
+    "pair; \"Download CSV\" writes a file for `dtx import markers`.",
+    view_opts,
+    "dtx view out.h5 -o out.html\n"
+    "dtx view out.h5 /results/lion/cat-poses cl.h5:/sequences/cat-poses -o out.html\n"
+    "dtx view cl.h5 --pick /meshes/cat /meshes/lion --markers /markers/cat-lion -o pick.html",
+    1,
+};
+
 static const dtx_cli_cmd rm = {
     "rm",
     "remove objects (meshes, sequences, markers, results, ...) from a dtx file",
@@ -339,7 +369,7 @@ static const dtx_cli_cmd help = {
 static const dtx_cli_cmd *const commands[] = {
     &import_mesh, &import_sequence, &import_markers, &run,      &keypoints,
     &export_,     &inspect,         &validate,       &diff,     &render,
-    &report,      &generate,        &rm,             &version,        &help,     NULL,
+    &report,      &view,            &generate,       &rm,             &version,        &help,     NULL,
 };
 
 const dtx_cli_cmd *const *dtx_cli_commands(void)

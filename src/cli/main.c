@@ -11,6 +11,7 @@
 #include "cmd_render.h"
 #include "cmd_report.h"
 #include "cmd_rm.h"
+#include "cmd_view.h"
 #include "driver.h"
 #include "dtx_core.h"
 #include "h5layout.h"
@@ -728,6 +729,8 @@ int main(int argc, char **argv)
         return dtx_cmd_generate(argc, argv);
     if (strcmp(argv[1], "rm") == 0)
         return dtx_cmd_rm(argc, argv);
+    if (strcmp(argv[1], "view") == 0)
+        return dtx_cmd_view(argc, argv);
     fprintf(stderr, "dtx: unknown command '%s'\n\n", argv[1]);
     dtx_cli_print_overview(stderr);
     return 2;
