@@ -46,13 +46,16 @@ for p in "${optional[@]}"; do [[ -n ${installed[$p]:-} ]] || missing_opt+=("$p")
 
 
 # npm packages (pinned) into build-tools/ in the source tree: the Khronos glTF
-# validator, three and puppeteer-core.  Checked by their package.json files, so
-# a second run does not call npm.  Required: a failure is an error.
+# validator, three (compiled into dtx view's pages: cmake must run after it is
+# installed) and puppeteer-core (the browser tests; it downloads no browser).
+# Checked by the version in their package.json files, so a second run does not
+# call npm and a changed pin is installed.  Required: a failure is an error.
 npm_tools() {
     local dir p missing=()
     dir=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)/build-tools
-    for p in gltf-validator@2.0.0-dev.3.10 three@0.187.0 puppeteer-core@25.16.0; do
-        [[ -f $dir/node_modules/${p%@*}/package.json ]] || missing+=("$p")
+    for p in gltf-validator@2.0.0-dev.3.10 three@0.160.0 puppeteer-core@21.11.0; do
+        grep -qs "\"version\": \"${p##*@}\"" "$dir/node_modules/${p%@*}/package.json" ||
+            missing+=("$p")
     done
     [[ ${#missing[@]} -eq 0 ]] && return 0
     command -v npm > /dev/null || die "npm not found after installing packages"
