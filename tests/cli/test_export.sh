@@ -152,7 +152,7 @@ reject 1 'no-such-dir/x\.glb: cannot create' no-such-dir/x.glb \
 reject 1 'no-such-dir/x\.pc2: cannot create' no-such-dir/x.pc2 \
     "$DTX" export out.h5 $R --pc2 no-such-dir/x.pc2
 mkdir -p adir
-reject 1 'adir: is a directory' adir/.keep "$DTX" export out.h5 $R --glb adir
+reject 1 'adir \(--glb\) is a directory: give a file name for it \(nothing was read or written\)' adir/.keep "$DTX" export out.h5 $R --glb adir
 reject 1 '9 frames to export, more than --max-frames 4.*--stride 3' lion.glb \
     "$DTX" export out.h5 $R --glb lion.glb --max-frames 4
 # Checks come before any output: the PC2 of the same call is not written.
