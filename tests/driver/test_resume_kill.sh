@@ -294,7 +294,7 @@ done
 # On a busy machine a killed run can be much slower than the reference, so
 # that no kill point reached the frame loop: time the reference again and
 # kill later, until one does (or the runs end before the kill).
-for frac in 0.9 0.95 1.0 1.1; do
+for frac in 0.9 0.95 1.0 1.1 1.3 1.6 2.0; do
     [ $any_skipped -eq 1 ] && break
     t0=$(now_ms)
     OMP_NUM_THREADS=1 mpirun --bind-to none -np 2 "$DTX" run --quiet "$W/ref.json"
