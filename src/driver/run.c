@@ -42,6 +42,7 @@
 #include "driver.h"
 
 #include "dtx_core.h"
+#include "file_util.h"
 #include "h5layout.h"
 #include "job.h"
 #include "keypoint_setup.h"
@@ -1432,7 +1433,12 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             char res_path[DTX_H5_PATH_MAX], seqdesc[4200];
             dtx_h5_provenance prov;
             snprintf(res_path, sizeof res_path, "/results/%s/%s", tj->name, r->sq[s].name);
-            snprintf(seqdesc, sizeof seqdesc, "%s:%s", r->job.source_file, r->sq[s].path);
+            /* The source file by a path relative to the output where they
+             * share a folder, so both can move together (readers look
+             * relative to the result's file). */
+            char relsrc[4096];
+            dtx_path_relative(r->job.source_file, r->job.output_file, relsrc, sizeof relsrc);
+            snprintf(seqdesc, sizeof seqdesc, "%s:%s", relsrc, r->sq[s].path);
             prov.method = r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent"
                           : r->job.method == DTX_METHOD_BIHARMONIC   ? "biharmonic"
                           : r->job.method == DTX_METHOD_SPRINGS      ? "springs"

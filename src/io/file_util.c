@@ -1,8 +1,12 @@
 /* file_util.c: open input files only when they are regular files, without
  * ever blocking on a FIFO. */
+/* realpath() is XSI, outside _POSIX_C_SOURCE. */
+#define _XOPEN_SOURCE 700
+
 #include "file_util.h"
 
 #include <errno.h>
+#include <stdio.h>
 #include <fcntl.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -125,4 +129,56 @@ dtx_status dtx_file_read_regular(const char *path, size_t max_bytes, char **buf,
     *buf = b;
     *len = n;
     return DTX_OK;
+}
+
+void dtx_path_relative(const char *target, const char *from, char *out, size_t n)
+{
+    char *t = realpath(target, NULL), *dir = NULL, *fcopy = strdup(from), *slash;
+    const char *tp, *dp;
+    size_t common = 0, len = 0;
+    int ups = 0, ok = 0;
+    if (fcopy) {
+        slash = strrchr(fcopy, '/');
+        if (slash == fcopy)
+            dir = realpath("/", NULL);
+        else {
+            if (slash)
+                *slash = '\0';
+            dir = realpath(slash ? fcopy : ".", NULL);
+        }
+    }
+    if (t && dir) {
+        /* The longest common leading run of whole components. */
+        for (size_t i = 0;; i++) {
+            if ((t[i] == '/' || t[i] == '\0') && (dir[i] == '/' || dir[i] == '\0'))
+                common = i;
+            if (t[i] != dir[i] || t[i] == '\0')
+                break;
+        }
+        tp = t + common;
+        dp = dir + common;
+        /* Components of dir below the common part: one "../" each. */
+        for (const char *c = dp; *c; c++)
+            if (*c == '/')
+                ups++;
+        if (common > 0 && tp[0] == '/') {
+            out[0] = '\0';
+            ok = 1;
+            for (int u = 0; u < ups && ok; u++) {
+                ok = len + 3 < n;
+                if (ok) {
+                    memcpy(out + len, "../", 4);
+                    len += 3;
+                }
+            }
+            ok = ok && len + strlen(tp + 1) < n;
+            if (ok)
+                memcpy(out + len, tp + 1, strlen(tp + 1) + 1);
+        }
+    }
+    if (!ok)
+        snprintf(out, n, "%s", target);
+    free(t);
+    free(dir);
+    free(fcopy);
 }

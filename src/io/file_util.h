@@ -44,4 +44,12 @@ dtx_status dtx_file_check_regular(const char *path, dtx_error *err);
 dtx_status dtx_file_read_regular(const char *path, size_t max_bytes, char **buf, size_t *len,
                                  dtx_error *err);
 
+/* The path of the existing file `target` relative to the directory of the
+ * file `from` (which need not exist yet; its directory must), written into
+ * out (n bytes): "in.h5", "../data/in.h5".  Both are resolved with
+ * realpath first.  When they share no directory but the root, or anything
+ * cannot be resolved or does not fit, out gets target as given.  Used for
+ * references between files that move together (a result and its source). */
+void dtx_path_relative(const char *target, const char *from, char *out, size_t n);
+
 #endif /* DTX_FILE_UTIL_H */

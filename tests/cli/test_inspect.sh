@@ -69,7 +69,7 @@ has out.txt "correspondence" "/correspondences/lion: "
 has out.txt "result counts" \
     "/results/lion/cat-poses: 3 of 3 frames done (complete), 5000 vertices (float64)"
 has out.txt "method" "method           sp04"
-has out.txt "source sequence" "source sequence  $W/cl.h5:/sequences/cat-poses"
+has out.txt "source sequence (relative to the result: same folder)" "source sequence  cl.h5:/sequences/cat-poses"
 has out.txt "target" "target mesh      /meshes/lion"
 has out.txt "dtx version" "dtx version      $("$DTX" version | cut -d' ' -f2)"
 hash=$("$PY" -c '

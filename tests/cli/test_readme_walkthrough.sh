@@ -30,4 +30,13 @@ for f in out.html lion.glb lion.obj lion.pc2; do
 done
 check "the reference pose was left out of the sequence" \
     bash -c "'$DTX' inspect '$M/in.h5' --frames | grep -q '8: cat-09.obj' && ! '$DTX' inspect '$M/in.h5' --frames | grep -q reference"
+# The result names its source by a path relative to itself, so the two can
+# move together: the folder moved elsewhere still renders with its source row.
+check "the result names its source relative to itself (in.h5:/sequences/walk)" \
+    bash -c "'$DTX' inspect '$M/out.h5' | grep -qE 'source sequence +in\.h5:/sequences/walk$'"
+mv "$M" moved
+check "after moving the folder, render finds the source (run from elsewhere)" \
+    bash -c "cd / && '$DTX' render '$W/moved/out.h5' /results/lion/walk -o '$W/moved.png' --count 2"
+check "... and writes the picture" test -s moved.png
+
 finish
