@@ -358,6 +358,49 @@ static dtx_status check_child(const cJSON *root, const cJSON *s, char *spath, si
     return st;
 }
 
+
+/* Patterns dtx accepts: POSIX extended regular expressions of at most
+ * PATTERN_MAX bytes in which no quantifier (*, +, ?, {m,n}) follows another
+ * directly.  POSIX leaves "a+*" undefined, and glibc's matcher takes
+ * exponential time and memory on runs of them ("a??????...", "a+++++..."),
+ * so a schema could stall a job's validation; the patterns dtx's own schema
+ * uses need neither. */
+#define PATTERN_MAX 1024
+static int pattern_ok(const char *p)
+{
+    int prev_quant = 0, in_bracket = 0;
+    if (strlen(p) > PATTERN_MAX)
+        return 0;
+    for (; *p; p++) {
+        if (in_bracket) {
+            if (*p == ']')
+                in_bracket = 0;
+            continue;
+        }
+        if (*p == '\\' && p[1]) {
+            p++;
+            prev_quant = 0;
+        } else if (*p == '[') {
+            in_bracket = 1;
+            if (p[1] == '^')
+                p++;
+            if (p[1] == ']') /* "[]...]": a literal ] first */
+                p++;
+            prev_quant = 0;
+        } else if (*p == '*' || *p == '+' || *p == '?' || *p == '{') {
+            if (prev_quant)
+                return 0;
+            if (*p == '{')
+                while (p[1] && *p != '}')
+                    p++;
+            prev_quant = 1;
+        } else {
+            prev_quant = 0;
+        }
+    }
+    return 1;
+}
+
 static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, size_t spsize,
                                int depth, char *msg, size_t msgsize)
 {
@@ -448,6 +491,10 @@ static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, s
             regex_t re;
             if (!cJSON_IsString(kw))
                 return schema_err(msg, msgsize, spath, "\"pattern\" must be a string");
+            if (!pattern_ok(kw->valuestring))
+                return schema_err(msg, msgsize, spath,
+                                  "pattern too long or with a quantifier right after another "
+                                  "(\"a+*\"), which POSIX leaves undefined");
             if (regcomp(&re, kw->valuestring, REG_EXTENDED | REG_NOSUB) != 0)
                 return schema_err(msg, msgsize, spath, "invalid pattern \"%s\"",
                                   kw->valuestring);
@@ -743,8 +790,9 @@ static dtx_status check_string(vctx *c, const cJSON *s, const cJSON *d, verr *e)
     if (cJSON_IsString(pat)) {
         regex_t re;
         int r;
-        if (regcomp(&re, pat->valuestring, REG_EXTENDED | REG_NOSUB) != 0)
-            return fail(c, e, DTX_EINVAL, "schema error: invalid pattern \"%s\"",
+        if (!pattern_ok(pat->valuestring) ||
+            regcomp(&re, pat->valuestring, REG_EXTENDED | REG_NOSUB) != 0)
+            return fail(c, e, DTX_EINVAL, "schema error: invalid pattern \"%.200s\"",
                         pat->valuestring);
         r = regexec(&re, d->valuestring, 0, NULL, 0);
         regfree(&re);

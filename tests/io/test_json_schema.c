@@ -328,6 +328,17 @@ static void test_schema_errors(void)
     EXPECT_SCHEMA_ERR("{\"$ref\":\"#/$defs/nope\"}", "1",
                       "schema error at #: cannot resolve \"$ref\": \"#/$defs/nope\"");
     EXPECT_SCHEMA_ERR("{\"pattern\":\"(\"}", "\"x\"", "schema error at #: invalid pattern \"(\"");
+    /* A quantifier right after another (undefined in POSIX; glibc's matcher
+     * took exponential time on the fuzzer's "a??????..." and "a+++++...") and
+     * overlong patterns are refused at once; bracket expressions and escapes
+     * may hold those characters. */
+    EXPECT_SCHEMA_ERR("{\"pattern\":\"^a???????????????????????????????????+$\"}", "\"a\"",
+                      "schema error at #: pattern too long or with a quantifier right after another (\"a+*\"), which POSIX leaves undefined");
+    EXPECT_SCHEMA_ERR("{\"pattern\":\"^a+****************************$\"}", "\"a\"",
+                      "schema error at #: pattern too long or with a quantifier right after another (\"a+*\"), which POSIX leaves undefined");
+    EXPECT_SCHEMA_ERR("{\"pattern\":\"x{2}+\"}", "\"xx\"",
+                      "schema error at #: pattern too long or with a quantifier right after another (\"a+*\"), which POSIX leaves undefined");
+    EXPECT_OK("{\"pattern\":\"^[+*?]+\\\\+a{1,2}$\"}", "\"*?+a\"");
     EXPECT_SCHEMA_ERR("{\"type\":\"float\"}", "1", "schema error at #: unknown type \"float\"");
     EXPECT_SCHEMA_ERR("{\"minItems\":-1}", "[]",
                       "schema error at #: \"minItems\" must be a non-negative integer");
