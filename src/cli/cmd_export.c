@@ -21,7 +21,9 @@
 
 #include "gltf.h"
 #include "h5layout.h"
+#include "h5mesh_attrs.h"
 #include "meshfile.h"
+#include "obj_frames.h"
 #include "pc2.h"
 
 #include <errno.h>
@@ -356,24 +358,36 @@ static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mes
     return st;
 }
 
-static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx_mesh *mesh,
-                                double *X, dtx_error *err)
+/* The frames as OBJ with the mesh's attributes (UVs, materials, mtllib;
+ * per-frame normals when the mesh had normals: io/obj_frames.h). */
+static dtx_status write_obj_dir(hid_t f, frame_source *s, const export_args *a,
+                                const dtx_mesh *mesh, double *X, dtx_error *err)
 {
     char path[8192];
     const char *base = strrchr(a->item, '/');
     dtx_status st = DTX_OK;
     int64_t T = exported_frames(s);
+    dtx_mesh_attrs attrs;
+    dtx_obj_frames w;
     base = base ? base + 1 : a->item;
+    snprintf(path, sizeof path, "%.4000s/%s", a->item, s->is_result ? "target" : "rest");
+    st = dtx_h5_read_mesh_attrs(f, path, mesh->nv, mesh->nf, &attrs, err);
+    if (st == DTX_OK)
+        st = dtx_obj_frames_begin(&w, mesh, &attrs, err);
+    dtx_mesh_attrs_free(&attrs);
+    if (st != DTX_OK)
+        return st;
     if (mkdir(a->obj_dir, 0777) != 0 && errno != EEXIST)
-        return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s", a->obj_dir,
-                          strerror(errno));
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s", a->obj_dir,
+                        strerror(errno));
     for (int64_t k = 0; st == DTX_OK && k < T; k++) {
         st = read_frame(s, k, X, err);
         snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", a->obj_dir, base,
                  (long long)(k * s->stride + 1));
         if (st == DTX_OK)
-            st = dtx_obj_write(path, X, mesh->nv, mesh->F, mesh->nf, "exported by dtx", err);
+            st = dtx_obj_frames_write(&w, path, X, NULL, "exported by dtx", err);
     }
+    dtx_obj_frames_end(&w);
     if (st == DTX_OK)
         fprintf(stderr, "dtx: %lld frames -> %s/\n", (long long)T, a->obj_dir);
     return st;
@@ -441,7 +455,7 @@ int dtx_cmd_export(int argc, char **argv)
     if (st == DTX_OK && a.glb)
         st = write_glb(&s, &a, &mesh, a.input, &err);
     if (st == DTX_OK && a.obj_dir)
-        st = write_obj_dir(&s, &a, &mesh, X, &err);
+        st = write_obj_dir(f, &s, &a, &mesh, X, &err);
 
     free(X);
     dtx_mesh_free(&mesh);
