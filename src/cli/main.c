@@ -203,6 +203,12 @@ static int cmd_import_mesh(int argc, char **argv)
             dtx_mesh_free(&m);
             return fail(&err);
         }
+        /* PLY vertex colours, normals and texture coordinates likewise. */
+        if (n > 4 && strcasecmp(pos[0] + n - 4, ".ply") == 0 &&
+            (st = dtx_ply_read_attrs(pos[0], m.nf, &attrs, &w, &err)) != DTX_OK) {
+            dtx_mesh_free(&m);
+            return fail(&err);
+        }
     }
     st = open_for_import(out, &f, &created, &err);
     if (st == DTX_OK)
