@@ -3,6 +3,7 @@
  * and the driver, prints messages.  Exit status 0 on success, 1 on any
  * error (with "dtx: error: ..." on stderr), 2 on a usage error.
  */
+#include "assimp_import.h"
 #include "cmd_export.h"
 #include "cmd_generate.h"
 #include "cmd_inspect.h"
@@ -186,12 +187,15 @@ static int cmd_import_mesh(int argc, char **argv)
     dtx_status st;
     if (positionals(argc, argv, 3, pos, 2) != 1 || !out || !name)
         return usage("import mesh needs one mesh file, -o OUT.h5 and --name NAME");
-    st = dtx_mesh_read(pos[0], &m, &w, &err);
+    /* glTF 2.0 and FBX through assimp, with their UVs, normals, materials. */
+    st = dtx_assimp_handles(pos[0]) ? dtx_assimp_read(pos[0], &m, &attrs, &w, &err)
+                                    : dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
         return fail(&err);
     /* What dtx run and dtx validate would reject is not written. */
     if ((st = dtx_mesh_validate(&m, pos[0], &err)) != DTX_OK) {
         dtx_mesh_free(&m);
+        dtx_mesh_attrs_free(&attrs);
         return fail(&err);
     }
     snprintf(group, sizeof group, "/meshes/%s", name);
