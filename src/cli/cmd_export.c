@@ -358,6 +358,23 @@ static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mes
     return st;
 }
 
+/* The rest mesh as OBJ with its attributes as stored (UVs, materials,
+ * mtllib, the asset's own normals: they are the rest shape's). */
+static dtx_status write_obj_rest(hid_t f, const frame_source *s, const export_args *a,
+                                 const dtx_mesh *mesh, dtx_error *err)
+{
+    char path[DTX_H5_PATH_MAX + 16];
+    dtx_mesh_attrs attrs;
+    dtx_status st;
+    snprintf(path, sizeof path, "%s/%s", a->item, s->is_result ? "target" : "rest");
+    st = dtx_h5_read_mesh_attrs(f, path, mesh->nv, mesh->nf, &attrs, err);
+    if (st == DTX_OK)
+        st = dtx_obj_write_attrs(a->obj_rest, mesh->V, NULL, mesh->nv, mesh->F, mesh->nf, &attrs,
+                                 "rest mesh exported by dtx (apply the PC2 cache to it)", err);
+    dtx_mesh_attrs_free(&attrs);
+    return st;
+}
+
 /* The frames as OBJ with the mesh's attributes (UVs, materials, mtllib;
  * per-frame normals when the mesh had normals: io/obj_frames.h). */
 static dtx_status write_obj_dir(hid_t f, frame_source *s, const export_args *a,
@@ -444,8 +461,7 @@ int dtx_cmd_export(int argc, char **argv)
 
     /* ---- outputs */
     if (st == DTX_OK && a.obj_rest) {
-        st = dtx_obj_write(a.obj_rest, mesh.V, mesh.nv, mesh.F, mesh.nf,
-                           "rest mesh exported by dtx (apply the PC2 cache to it)", &err);
+        st = write_obj_rest(f, &s, &a, &mesh, &err);
         if (st == DTX_OK)
             fprintf(stderr, "dtx: mesh (%d vertices, %d faces) -> %s\n", (int)mesh.nv, (int)mesh.nf,
                     a.obj_rest);

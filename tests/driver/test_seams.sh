@@ -70,6 +70,10 @@ for k in 1 3; do
     check "the job's OBJ frame $k: the same" \
         python3 "$oxc" lion-uv.obj sp04-obj/lion-uv/cat-poses/lion-uv-0000$k.obj f$k.bin
 done
+"$DTX" export sp04.h5 /results/lion-uv/cat-poses --obj-rest sp04-rest.obj 2>> exp.log
+h5dump -d /meshes/lion-uv/vertices -b LE -o rest-v.bin sp04.h5 > /dev/null
+check "export --obj-rest: the asset with its vt, usemtl and own normals" \
+    python3 "$oxc" lion-uv.obj sp04-rest.obj rest-v.bin --rest
 check "a mesh without attributes exports without them" bash -c \
     "! grep -Eq '^(vt|vn|usemtl|mtllib) ' sp04-obj/lion/cat-poses/lion-00001.obj"
 
