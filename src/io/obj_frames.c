@@ -1,6 +1,7 @@
 /* obj_frames.c: OBJ frames of an asset with its attributes (obj_frames.h). */
 #include "obj_frames.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -13,6 +14,24 @@ dtx_status dtx_obj_frames_begin(dtx_obj_frames *w, const dtx_mesh *mesh, dtx_mes
     if (a) {
         w->owned = *a;
         memset(a, 0, sizeof *a);
+    }
+    /* OBJ names are single words: a glTF/FBX material "Skin Mat" becomes
+     * "Skin_Mat" (an empty name "material_N") in the OBJ frames. */
+    for (int32_t m = 0; m < w->owned.nmat; m++) {
+        char *s = w->owned.material_names[m];
+        if (s && !s[0]) {
+            char *r = malloc(32);
+            if (!r) {
+                dtx_obj_frames_end(w);
+                return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            }
+            snprintf(r, 32, "material_%d", (int)m);
+            free(s);
+            w->owned.material_names[m] = r;
+        }
+        for (s = w->owned.material_names[m]; s && *s; s++)
+            if (*s == ' ' || *s == '\t' || *s == '\r' || *s == '\n')
+                *s = '_';
     }
     w->a = w->owned;
     if (w->owned.normals) {

@@ -8,8 +8,9 @@
  * from its own positions that keep the asset's smoothing
  * (core/frame_normals.h: area-weighted, per smoothing group, twins along a
  * seam together; the asset's per-vertex indexing kept when it had one);
- * when it had none, none are written.  Without attributes the file is what
- * dtx_obj_write writes.
+ * when it had none, none are written.  Material names with white space
+ * (common in glTF and FBX) get '_' for it, an empty name "material_N".
+ * Without attributes the file is what dtx_obj_write writes.
  */
 #ifndef DTX_OBJ_FRAMES_H
 #define DTX_OBJ_FRAMES_H
