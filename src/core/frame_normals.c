@@ -21,6 +21,8 @@ void dtx_frame_normals_free(dtx_frame_normals *p)
     free(p->start);
     free(p->faces);
     free(p->fallback);
+    free(p->out_group);
+    free(p->sum);
     memset(p, 0, sizeof *p);
 }
 
@@ -67,6 +69,7 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
     int64_t nc = 3 * (int64_t)nf;
     int32_t *map = NULL, *rep = NULL, *pstart = NULL, *pcorner = NULL, *rep_v = NULL,
             *rep_j = NULL, nw = 0;
+    int32_t *grep_n = NULL, *cgroup = NULL;
     corner_key *keys = NULL;
     int pervertex = 1;
     dtx_status st;
@@ -104,8 +107,7 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
     rep_v = malloc(((size_t)p->nout + 1) * sizeof *rep_v);
     rep_j = malloc(((size_t)p->nout + 1) * sizeof *rep_j);
     p->fallback = malloc(((size_t)p->nout + 1) * 3 * sizeof *p->fallback);
-    p->start = calloc((size_t)p->nout + 2, sizeof *p->start);
-    if (!rep_v || !rep_j || !p->fallback || !p->start)
+    if (!rep_v || !rep_j || !p->fallback)
         goto oom;
     for (int32_t o = 0; o < p->nout; o++)
         rep_v[o] = o, rep_j[o] = pervertex && o < nn ? o : -1;
@@ -135,30 +137,44 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
     for (int64_t c = 0; c < nc; c++)
         pcorner[pstart[map[F[c]] + 1]++] = (int32_t)c;
 
-    /* ---- faces of each output normal: two passes (count, fill) */
-    for (int pass = 0; pass < 2; pass++) {
-        int64_t total = 0;
-        for (int32_t o = 0; o < p->nout; o++) {
-            int32_t w = map[rep_v[o]], n = 0;
-            if (pass == 1)
-                total = p->start[o];
-            if (rep_j[o] >= 0)
-                for (int32_t i = pstart[w]; i < pstart[w + 1]; i++) {
-                    int32_t c = pcorner[i];
-                    if (!same_group(normals + 3 * (size_t)normal_faces[c],
-                                    normals + 3 * (size_t)rep_j[o]))
-                        continue;
-                    if (pass == 1)
-                        p->faces[total + n] = c / 3;
-                    n++;
-                }
-            if (pass == 0)
-                p->start[o + 1] = p->start[o] + n;
-            (void)total;
+    /* ---- smoothing groups: the corners at one position whose asset
+     * normals agree (greedy, against each group's first normal), so that
+     * outputs sharing a group share its face list (memory O(corners) even
+     * where one position has many corners, as in a per-corner FBX mesh) */
+    grep_n = malloc(((size_t)nc + 1) * sizeof *grep_n);
+    cgroup = malloc(((size_t)nc + 1) * sizeof *cgroup);
+    if (!grep_n || !cgroup)
+        goto oom;
+    for (int32_t w = 0; w < nw; w++) {
+        int32_t first = p->ngroup;
+        for (int32_t i = pstart[w]; i < pstart[w + 1]; i++) {
+            int32_t c = pcorner[i], g = first;
+            while (g < p->ngroup && !same_group(normals + 3 * (size_t)normal_faces[c],
+                                                normals + 3 * (size_t)grep_n[g]))
+                g++;
+            if (g == p->ngroup)
+                grep_n[p->ngroup++] = normal_faces[c];
+            cgroup[c] = g;
         }
-        if (pass == 0 && !(p->faces = malloc(((size_t)p->start[p->nout] + 1) * sizeof *p->faces)))
-            goto oom;
     }
+    p->start = calloc((size_t)p->ngroup + 2, sizeof *p->start);
+    p->faces = malloc(((size_t)nc + 1) * sizeof *p->faces);
+    p->sum = malloc(((size_t)p->ngroup + 1) * 3 * sizeof *p->sum);
+    p->out_group = malloc(((size_t)p->nout + 1) * sizeof *p->out_group);
+    if (!p->start || !p->faces || !p->sum || !p->out_group)
+        goto oom;
+    for (int64_t c = 0; c < nc; c++)
+        p->start[cgroup[c] + 2]++;
+    for (int32_t g = 0; g < p->ngroup; g++)
+        p->start[g + 2] += p->start[g + 1];
+    for (int64_t c = 0; c < nc; c++)
+        p->faces[p->start[cgroup[c] + 1]++] = (int32_t)(c / 3);
+    for (int32_t o = 0; o < p->nout; o++)
+        p->out_group[o] = -1;
+    for (int64_t c = 0; c < nc; c++)
+        p->out_group[p->out_faces[c]] = cgroup[c];
+    free(grep_n);
+    free(cgroup);
     free(map);
     free(rep);
     free(keys);
@@ -170,6 +186,8 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
 oom:
     st = dtx_seterr(err, DTX_ENOMEM, "frame normals: out of memory");
 fail:
+    free(grep_n);
+    free(cgroup);
     free(map);
     free(rep);
     free(keys);
@@ -190,9 +208,10 @@ static void get(const double *X, const float *Xf, int32_t i, double *x)
 void dtx_frame_normals_apply(const dtx_frame_normals *p, const double *X, const float *Xf,
                              const int32_t *F, double *N)
 {
-    for (int32_t o = 0; o < p->nout; o++) {
-        double s[3] = {0, 0, 0}, l;
-        for (int32_t i = p->start[o]; i < p->start[o + 1]; i++) {
+    for (int32_t g = 0; g < p->ngroup; g++) {
+        double *s = p->sum + 3 * (size_t)g;
+        s[0] = s[1] = s[2] = 0;
+        for (int32_t i = p->start[g]; i < p->start[g + 1]; i++) {
             const int32_t *t = F + 3 * (size_t)p->faces[i];
             double a[3], b[3], c[3], e1[3], e2[3];
             get(X, Xf, t[0], a);
@@ -204,7 +223,10 @@ void dtx_frame_normals_apply(const dtx_frame_normals *p, const double *X, const 
             s[1] += e1[2] * e2[0] - e1[0] * e2[2];
             s[2] += e1[0] * e2[1] - e1[1] * e2[0];
         }
-        l = sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]);
+    }
+    for (int32_t o = 0; o < p->nout; o++) {
+        const double *s = p->out_group[o] >= 0 ? p->sum + 3 * (size_t)p->out_group[o] : NULL;
+        double l = s ? sqrt(s[0] * s[0] + s[1] * s[1] + s[2] * s[2]) : 0;
         if (l > 0 && isfinite(l)) {
             for (int k = 0; k < 3; k++)
                 N[3 * (size_t)o + k] = s[k] / l;

@@ -19,8 +19,8 @@
  *     the asset's normals differ, stays hard), normalised.
  *
  * Precompute / apply: the plan depends on the rest mesh and its normals
- * only; apply is per frame.  Pure functions, no I/O; apply is thread-safe
- * on distinct outputs.
+ * only; apply is per frame.  Pure functions, no I/O; apply uses the plan's
+ * scratch, so one plan is applied by one thread at a time.
  */
 #ifndef DTX_FRAME_NORMALS_H
 #define DTX_FRAME_NORMALS_H
@@ -33,9 +33,12 @@ typedef struct {
     int32_t nf;
     int32_t nout;       /* output normals */
     int32_t *out_faces; /* nf x 3: corner (f, k) uses output normal out_faces[3f + k] */
-    int32_t *start;     /* nout + 1: faces of output normal o are faces[start[o] .. start[o+1]) */
-    int32_t *faces;
+    int32_t *out_group; /* nout: the smoothing group of output o, or -1 (no corner) */
+    int32_t ngroup;     /* smoothing groups (a position and an asset normal there) */
+    int32_t *start;     /* ngroup + 1: faces of group g are faces[start[g] .. start[g+1]) */
+    int32_t *faces;     /* 3 nf entries */
     double *fallback;   /* nout x 3: the asset's normal, used where the sum vanishes */
+    double *sum;        /* ngroup x 3: apply's scratch */
 } dtx_frame_normals;
 
 /* The plan for a mesh of nv rest vertices V (nv x 3 doubles; twins are
@@ -49,7 +52,7 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
                                   dtx_error *err);
 
 /* The output normals N (p->nout x 3, caller-allocated, unit length) of the
- * frame X (nv x 3 doubles or, when Xf is given instead, floats; exactly
+ * frame X (the plan's scratch is overwritten) (nv x 3 doubles or, when Xf is given instead, floats; exactly
  * one non-NULL) of the planned mesh with faces F. */
 void dtx_frame_normals_apply(const dtx_frame_normals *p, const double *X, const float *Xf,
                              const int32_t *F, double *N);

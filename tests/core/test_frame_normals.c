@@ -27,6 +27,8 @@ static void test_hard_edges(void)
         nf[c] = c / 6;
     CHECK_OK(dtx_frame_normals_plan(CV, 8, CF, 12, FACE_N, 6, nf, &p, &e), &e);
     CHECK_EQ_INT(p.nout, 24); /* 8 corners x 3 sides */
+    CHECK_EQ_INT(p.ngroup, 24);
+    CHECK_EQ_INT(p.start[p.ngroup], 36); /* one entry per face corner: no k^2 lists */
     /* Rotate 90 degrees about z: (x, y, z) -> (-y, x, z). */
     for (int i = 0; i < 8; i++) {
         X[3 * i] = -CV[3 * i + 1];
