@@ -16,7 +16,7 @@ die() { echo "setup: error: $*" >&2; exit 1; }
 required=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
           hdf5-tools libsuitesparse-dev libopenblas-dev liblapack-dev libcjson-dev libpng-dev
           xz-utils valgrind libassimp-dev)
-optional=(python3-h5py python3-numpy)
+optional=(python3-h5py python3-numpy assimp-utils)
 
 command -v dpkg-query > /dev/null || die "dpkg-query not found: this script is for Debian 12"
 
