@@ -27,7 +27,7 @@ required=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libhdf5-op
 # ships its own npm and conflicts with Debian's npm package).
 command -v node > /dev/null || required+=(nodejs)
 command -v npm > /dev/null || required+=(npm)
-optional=()
+optional=(assimp-utils)
 
 command -v dpkg-query > /dev/null || die "dpkg-query not found: this script is for Debian 12"
 

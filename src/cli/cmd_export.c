@@ -27,8 +27,10 @@
 
 #include "gltf.h"
 #include "h5layout.h"
+#include "h5mesh_attrs.h"
 #include "mdd.h"
 #include "meshfile.h"
+#include "obj_frames.h"
 #include "path_guard.h"
 #include "pc2.h"
 
@@ -430,6 +432,23 @@ static dtx_status check_frames(frame_source *s, const export_args *a, double *X,
     return DTX_OK;
 }
 
+/* The rest mesh as OBJ with its attributes as stored (UVs, materials,
+ * mtllib, the asset's own normals: they are the rest shape's). */
+static dtx_status write_obj_rest(hid_t f, const frame_source *s, const export_args *a,
+                                 const dtx_mesh *mesh, dtx_error *err)
+{
+    char path[DTX_H5_PATH_MAX + 16];
+    dtx_mesh_attrs attrs;
+    dtx_status st;
+    snprintf(path, sizeof path, "%s/%s", a->item, s->is_result ? "target" : "rest");
+    st = dtx_h5_read_mesh_attrs(f, path, mesh->nv, mesh->nf, &attrs, err);
+    if (st == DTX_OK)
+        st = dtx_obj_write_attrs(a->obj_rest, mesh->V, NULL, mesh->nv, mesh->F, mesh->nf, &attrs,
+                                 "rest mesh exported by dtx (apply the PC2 cache to it)", err);
+    dtx_mesh_attrs_free(&attrs);
+    return st;
+}
+
 /* Removes the first n frame files of dir (written by write_obj_dir), then
  * dir itself: only what this export created. */
 static void remove_frames(const char *dir, const char *base, const frame_source *s, int64_t n)
@@ -447,8 +466,8 @@ static void remove_frames(const char *dir, const char *base, const frame_source 
  * are written, so an error (a full disk, say) leaves none of them: a new
  * DIR is the temporary directory renamed; into an existing DIR (whose other
  * files stay) each frame is renamed from a temporary directory inside it. */
-static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx_mesh *mesh,
-                                double *X, dtx_error *err)
+static dtx_status write_obj_dir(hid_t f, frame_source *s, const export_args *a,
+                                const dtx_mesh *mesh, double *X, dtx_error *err)
 {
     char dir[4096], tmp[4200], path[8192], final[8192];
     const char *base = strrchr(a->item, '/'), *slash;
@@ -457,7 +476,18 @@ static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx
     size_t len;
     struct stat sb;
     int exists;
+    dtx_mesh_attrs attrs;
+    dtx_obj_frames w;
     base = base ? base + 1 : a->item;
+    /* The frames carry the mesh's attributes (UVs, materials, mtllib;
+     * per-frame normals when the mesh had normals: io/obj_frames.h). */
+    snprintf(path, sizeof path, "%.4000s/%s", a->item, s->is_result ? "target" : "rest");
+    st = dtx_h5_read_mesh_attrs(f, path, mesh->nv, mesh->nf, &attrs, err);
+    if (st == DTX_OK)
+        st = dtx_obj_frames_begin(&w, mesh, &attrs, err);
+    dtx_mesh_attrs_free(&attrs);
+    if (st != DTX_OK)
+        return st;
     len = strlen(a->obj_dir);
     while (len > 1 && a->obj_dir[len - 1] == '/')
         len--;
@@ -466,24 +496,29 @@ static dtx_status write_obj_dir(frame_source *s, const export_args *a, const dtx
     memcpy(dir, a->obj_dir, len);
     dir[len] = '\0';
     exists = stat(dir, &sb) == 0;
-    if (exists && !S_ISDIR(sb.st_mode))
+    if (exists && !S_ISDIR(sb.st_mode)) {
+        dtx_obj_frames_end(&w);
         return dtx_seterr(err, DTX_EINVAL, "%s: is not a directory", a->obj_dir);
+    }
     slash = strrchr(dir, '/');
     if (exists)
         snprintf(tmp, sizeof tmp, "%s/.dtx-export.tmp-%ld", dir, (long)getpid());
     else
         snprintf(tmp, sizeof tmp, "%.*s.%s.tmp-%ld", slash ? (int)(slash - dir + 1) : 0, dir,
                  slash ? slash + 1 : dir, (long)getpid());
-    if (mkdir(tmp, 0777) != 0)
+    if (mkdir(tmp, 0777) != 0) {
+        dtx_obj_frames_end(&w);
         return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s",
                           exists ? a->obj_dir : dir, strerror(errno));
+    }
     for (k = 0; st == DTX_OK && k < T; k++) {
         st = read_frame(s, k, X, err);
         snprintf(path, sizeof path, "%.4000s/%.1000s-%05lld.obj", tmp, base,
                  (long long)(k * s->stride + 1));
         if (st == DTX_OK)
-            st = dtx_obj_write(path, X, mesh->nv, mesh->F, mesh->nf, "exported by dtx", err);
+            st = dtx_obj_frames_write(&w, path, X, NULL, "exported by dtx", err);
     }
+    dtx_obj_frames_end(&w);
     if (st != DTX_OK) {
         remove_frames(tmp, base, s, k);
         return st;
@@ -608,8 +643,7 @@ int dtx_cmd_export(int argc, char **argv)
     new_pc2 = a.pc2 && access(a.pc2, F_OK) != 0;
     new_glb = a.glb && access(a.glb, F_OK) != 0;
     if (st == DTX_OK && a.obj_rest) {
-        st = dtx_obj_write(a.obj_rest, mesh.V, mesh.nv, mesh.F, mesh.nf,
-                           "rest mesh exported by dtx (apply the PC2 cache to it)", &err);
+        st = write_obj_rest(f, &s, &a, &mesh, &err);
         if (st == DTX_OK)
             fprintf(stderr, "dtx: mesh (%d vertices, %d faces) -> %s\n", (int)mesh.nv, (int)mesh.nf,
                     a.obj_rest);
@@ -621,7 +655,7 @@ int dtx_cmd_export(int argc, char **argv)
     if (st == DTX_OK && a.glb)
         st = write_glb(&s, &a, &mesh, a.input, &err);
     if (st == DTX_OK && a.obj_dir)
-        st = write_obj_dir(&s, &a, &mesh, X, &err);
+        st = write_obj_dir(f, &s, &a, &mesh, X, &err);
     if (st != DTX_OK) {
         const char *made[3] = {new_rest ? a.obj_rest : NULL, new_pc2 ? a.pc2 : NULL,
                                new_glb ? a.glb : NULL};

@@ -21,10 +21,15 @@ static const dtx_cli_opt import_mesh_opts[] = {
 
 static const dtx_cli_cmd import_mesh = {
     "import mesh",
-    "add a rest mesh (OBJ, PLY or OFF) to a dtx file",
-    "dtx import mesh FILE.(obj|ply|off) -o OUT.h5 --name NAME",
+    "add a rest mesh (OBJ, PLY, OFF, glTF 2.0 or FBX) to a dtx file",
+    "dtx import mesh FILE.(obj|ply|off|glb|gltf|fbx) -o OUT.h5 --name NAME",
     "Reads the mesh, checks it (indices, finite coordinates, degenerate faces) and\n"
-    "stores it as /meshes/NAME.  Polygons are fan-triangulated with a warning.\n"
+    "stores it as /meshes/NAME with its UVs, normals, materials (OBJ usemtl/mtllib,\n"
+    "glTF, FBX) or vertex colours (PLY), in the file's own vertex order.  Polygons are\n"
+    "fan-triangulated with a warning.\n"
+    "UVs, normals and materials (OBJ vt/vn/usemtl/mtllib, PLY vertex colours,\n"
+    "normals and s/t; glTF/FBX through assimp, in the file's vertex order) are\n"
+    "stored with it.\n"
     "A failed import leaves a new file removed and an existing file as it was.",
     import_mesh_opts,
     "dtx import mesh cat-reference.obj -o cat-lion.h5 --name cat",

@@ -3,6 +3,7 @@
  * and the driver, prints messages.  Exit status 0 on success, 1 on any
  * error (with "dtx: error: ..." on stderr), 2 on a usage error.
  */
+#include "assimp_import.h"
 #include "cmd_diff.h"
 #include "cmd_export.h"
 #include "cmd_generate.h"
@@ -221,12 +222,15 @@ static int cmd_import_mesh(int argc, char **argv)
         return fail(&err);
     if ((st = check_import_output(pos, 1, "the mesh file", out, &err)) != DTX_OK)
         return fail(&err);
-    st = dtx_mesh_read(pos[0], &m, &w, &err);
+    /* glTF 2.0 and FBX through assimp, with their UVs, normals, materials. */
+    st = dtx_assimp_handles(pos[0]) ? dtx_assimp_read(pos[0], &m, &attrs, &w, &err)
+                                    : dtx_mesh_read(pos[0], &m, &w, &err);
     if (st != DTX_OK)
         return fail(&err);
     /* What dtx run and dtx validate would reject is not written. */
     if ((st = dtx_mesh_validate(&m, pos[0], &err)) != DTX_OK) {
         dtx_mesh_free(&m);
+        dtx_mesh_attrs_free(&attrs);
         return fail(&err);
     }
     snprintf(group, sizeof group, "/meshes/%s", name);
@@ -235,6 +239,12 @@ static int cmd_import_mesh(int argc, char **argv)
         size_t n = strlen(pos[0]);
         if (n > 4 && strcasecmp(pos[0] + n - 4, ".obj") == 0 &&
             (st = dtx_obj_read_attrs(pos[0], m.nf, &attrs, &err)) != DTX_OK) {
+            dtx_mesh_free(&m);
+            return fail(&err);
+        }
+        /* PLY vertex colours, normals and texture coordinates likewise. */
+        if (n > 4 && strcasecmp(pos[0] + n - 4, ".ply") == 0 &&
+            (st = dtx_ply_read_attrs(pos[0], m.nf, &attrs, &w, &err)) != DTX_OK) {
             dtx_mesh_free(&m);
             return fail(&err);
         }

@@ -1605,9 +1605,11 @@ static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *
         char path[4200];
         snprintf(path, sizeof path, "%s/%s-%05lld.obj", dir, tc->tj->name,
                  (long long)(f0 + i + 1));
-        const dtx_mesh *am = dtx_weld_asset(&tc->weld, &tc->mesh);
-        st = dtx_obj_write(path, Xt + (size_t)i * 3 * am->nv, am->nv, am->F, am->nf,
-                           "deformation transfer result (dtx)", err);
+        /* With the asset's UVs, materials and per-frame normals (issue 17). */
+        target_ctx *mt = &r->tg[tc - r->tg];
+        st = dtx_weld_write_obj(&mt->weld, &mt->mesh, tc->tj->file, tc->tj->mesh, path,
+                                Xt + (size_t)i * 3 * tc->weld.nv,
+                                "deformation transfer result (dtx)", err);
     }
     return st;
 }

@@ -89,6 +89,31 @@ void dtx_weld_ctx_free(dtx_weld_ctx *w)
     free(w->rep);
     dtx_mesh_free(&w->asset);
     w->map = w->rep = NULL;
+    dtx_obj_frames_end(&w->obj);
+    w->obj_ready = 0;
+}
+
+dtx_status dtx_weld_write_obj(dtx_weld_ctx *w, const dtx_mesh *welded, const char *file,
+                              const char *mesh, const char *path, const double *X,
+                              const char *comment, dtx_error *err)
+{
+    const dtx_mesh *m = dtx_weld_asset(w, welded);
+    dtx_status st = DTX_OK;
+    if (!w->obj_ready) {
+        dtx_mesh_attrs a;
+        hid_t f = H5I_INVALID_HID;
+        st = dtx_h5_open(file, MPI_COMM_NULL, 0, &f, err);
+        if (st == DTX_OK)
+            st = dtx_h5_read_mesh_attrs(f, mesh, m->nv, m->nf, &a, err);
+        if (f >= 0)
+            dtx_h5_close(&f, NULL);
+        if (st == DTX_OK)
+            st = dtx_obj_frames_begin(&w->obj, m, &a, err);
+        if (st != DTX_OK)
+            return st;
+        w->obj_ready = 1;
+    }
+    return dtx_obj_frames_write(&w->obj, path, X, NULL, comment, err);
 }
 
 dtx_status dtx_weld_write_asset(hid_t out, const char *group, const dtx_weld_ctx *w,

@@ -11,6 +11,7 @@
 #define DTX_WELD_SETUP_H
 
 #include "markers.h"
+#include "obj_frames.h"
 #include "mesh.h"
 #include "status.h"
 
@@ -23,6 +24,8 @@ typedef struct {
     int32_t nw;         /* the welded count (nv when nothing was welded) */
     int32_t *map, *rep; /* weld.h's map (nv) and rep (nw); NULL when nothing was welded */
     dtx_mesh asset;     /* the mesh as stored; empty when nothing was welded */
+    int obj_ready;      /* obj holds the asset's attributes (dtx_weld_write_obj) */
+    dtx_obj_frames obj;
 } dtx_weld_ctx;
 
 /* Welds *m in place (twins within tol; tol < 0: no welding) and keeps the
@@ -60,6 +63,15 @@ void dtx_weld_result_frames(const dtx_weld_ctx *w, double *X, int64_t n);
 dtx_status dtx_weld_write_asset(hid_t out, const char *group, const dtx_weld_ctx *w,
                                 const dtx_mesh *welded, const char *file, const char *mesh,
                                 const char *source, dtx_error *err);
+
+/* Writes result frame X (the asset's order: dtx_weld_asset's nv x 3) as
+ * an OBJ at path with the attributes of the mesh group `mesh` of `file`
+ * (io/obj_frames.h: UVs, materials, mtllib, per-frame normals where the
+ * asset had normals).  The attributes are read at the first call and kept
+ * in w until dtx_weld_ctx_free.  Not collective. */
+dtx_status dtx_weld_write_obj(dtx_weld_ctx *w, const dtx_mesh *welded, const char *file,
+                              const char *mesh, const char *path, const double *X,
+                              const char *comment, dtx_error *err);
 
 void dtx_weld_ctx_free(dtx_weld_ctx *w);
 

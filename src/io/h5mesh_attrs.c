@@ -184,3 +184,35 @@ fail:
     dtx_mesh_attrs_free(a);
     return st;
 }
+
+/* Rows of group/name (a dataset), or -1. */
+static int64_t rows_of(hid_t file, const char *group, const char *name)
+{
+    char path[DTX_H5_PATH_MAX];
+    hsize_t d[3] = {0, 0, 0};
+    hid_t ds, sp;
+    int nd = -1;
+    snprintf(path, sizeof path, "%s/%s", group, name);
+    if (!dtx_h5_path_exists(file, path) || (ds = H5Dopen2(file, path, H5P_DEFAULT)) < 0)
+        return -1;
+    if ((sp = H5Dget_space(ds)) >= 0) {
+        nd = H5Sget_simple_extent_ndims(sp);
+        if (nd >= 1 && nd <= 3)
+            H5Sget_simple_extent_dims(sp, d, NULL);
+        H5Sclose(sp);
+    }
+    H5Dclose(ds);
+    return nd >= 1 && nd <= 3 && d[0] <= INT32_MAX ? (int64_t)d[0] : -1;
+}
+
+dtx_status dtx_h5_check_mesh_attrs(hid_t file, const char *group, dtx_error *err)
+{
+    int64_t nv = rows_of(file, group, "vertices"), nf = rows_of(file, group, "faces");
+    dtx_mesh_attrs a;
+    dtx_status st;
+    if (nv < 0 || nf < 0)
+        return dtx_seterr(err, DTX_EFORMAT, "%s: no readable vertices and faces", group);
+    st = dtx_h5_read_mesh_attrs(file, group, (int32_t)nv, (int32_t)nf, &a, err);
+    dtx_mesh_attrs_free(&a);
+    return st;
+}

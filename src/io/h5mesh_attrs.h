@@ -35,4 +35,13 @@ dtx_status dtx_h5_write_mesh_with(hid_t file, const char *group, const dtx_mesh 
 dtx_status dtx_h5_read_mesh_attrs(hid_t file, const char *group, int32_t nv, int32_t nf,
                                   dtx_mesh_attrs *a, dtx_error *err);
 
+/* The check `dtx validate` makes of the attributes of the mesh group
+ * `group` (the layout description's check "mesh_attributes"): the counts
+ * are the rows of its vertices and faces, then dtx_h5_read_mesh_attrs
+ * (shapes, uv with uv_faces and normals with normal_faces, material with
+ * its material_names and in [-1, nmat), index ranges, finite values,
+ * colours with 3 or 4 channels in [0, 1]).  DTX_OK when the group has no
+ * attributes; otherwise the first problem, its message naming the group. */
+dtx_status dtx_h5_check_mesh_attrs(hid_t file, const char *group, dtx_error *err);
+
 #endif /* DTX_H5MESH_ATTRS_H */

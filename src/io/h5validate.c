@@ -17,6 +17,7 @@
  */
 #include "file_util.h"
 #include "h5layout.h"
+#include "h5mesh_attrs.h"
 
 #include <cjson/cJSON.h>
 
@@ -980,6 +981,10 @@ static void check_one(vctx *c, const char *group, const cJSON *spec)
                 problem(c, group, "%s", strip_prefix(c, e.msg, group));
             dtx_mesh_free(&m);
         }
+    } else if (strcmp(what, "mesh_attributes") == 0) {
+        dtx_error e; /* only on an otherwise clean mesh, as mesh_readable */
+        if (c->cur_problems == 0 && dtx_h5_check_mesh_attrs(c->file, group, &e) != DTX_OK)
+            problem(c, group, "%s", strip_prefix(c, e.msg, group));
     } else {
         problem(c, group, "layout description: unknown check \"%s\"", what);
     }

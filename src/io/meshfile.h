@@ -152,6 +152,22 @@ dtx_status dtx_ply_read(const char *path, dtx_mesh *out, const dtx_warner *w, dt
 dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
                          const dtx_warner *w, dtx_error *err);
 
+/* The per-vertex attributes of a PLY file whose mesh (nf triangles)
+ * dtx_ply_read has read, in a pass of their own: colours (red, green,
+ * blue [, alpha], also diffuse_red..; integer types scaled to [0, 1] by
+ * their largest value, float kept; a value outside [0, 1] drops the
+ * colours with a warning), normals (nx, ny, nz) and texture coordinates
+ * (s, t / u, v / texture_u, texture_v / texture_s, texture_t; the first
+ * pair wins), in ascii and binary files.  Normals and UVs are stored per
+ * vertex: nn (nuv) = nv and normal_faces (uv_faces) = the faces.  A
+ * non-finite normal or UV is DTX_ENONFINITE.  Only the attributes'
+ * warnings go to w (the mesh's own were given by dtx_ply_read).  *a is
+ * zeroed first; free with dtx_mesh_attrs_free. */
+dtx_status dtx_ply_read_attrs(const char *path, int32_t nf, dtx_mesh_attrs *a,
+                              const dtx_warner *w, dtx_error *err);
+dtx_status dtx_ply_parse_attrs(const char *name, const char *buf, size_t len, int32_t nf,
+                               dtx_mesh_attrs *a, const dtx_warner *w, dtx_error *err);
+
 /* Object File Format (ASCII): an `OFF` header line (also COFF, NOFF, CNOFF,
  * STOFF...; 4OFF, nOFF and binary OFF are rejected), a counts line
  * `nv nf [ne]` (may share the header line), nv vertex lines with at least

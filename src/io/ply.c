@@ -33,6 +33,10 @@ static int is_int_type(ply_type t) { return t >= T_I8 && t <= T_U32; }
 
 enum { FMT_ASCII, FMT_LE, FMT_BE };
 enum { ROLE_SKIP = -1, ROLE_X = 0, ROLE_Y = 1, ROLE_Z = 2, ROLE_INDICES = 3 };
+/* Vertex attributes (dtx_ply_read_attrs): colour, normal, texture
+ * coordinates; value k of vertex i goes to A[NATTR * i + role - ROLE_R]. */
+enum { ROLE_R = 4, ROLE_G, ROLE_B, ROLE_A, ROLE_NX, ROLE_NY, ROLE_NZ, ROLE_U, ROLE_V, ROLE_END };
+#define NATTR (ROLE_END - ROLE_R)
 enum { EL_OTHER, EL_VERTEX, EL_FACE };
 
 typedef struct {
@@ -221,6 +225,24 @@ static int tok_is(const char *t, size_t n, const char *lit)
     return t && strlen(lit) == n && memcmp(t, lit, n) == 0;
 }
 
+/* The attribute role of a vertex property name, or ROLE_SKIP. */
+static int attr_role(const char *nm, size_t n)
+{
+    static const struct {
+        const char *name;
+        int role;
+    } names[] = {{"red", ROLE_R},       {"green", ROLE_G},     {"blue", ROLE_B},
+                 {"alpha", ROLE_A},     {"diffuse_red", ROLE_R}, {"diffuse_green", ROLE_G},
+                 {"diffuse_blue", ROLE_B}, {"nx", ROLE_NX},    {"ny", ROLE_NY},
+                 {"nz", ROLE_NZ},       {"s", ROLE_U},         {"t", ROLE_V},
+                 {"u", ROLE_U},         {"v", ROLE_V},         {"texture_u", ROLE_U},
+                 {"texture_v", ROLE_V}, {"texture_s", ROLE_U}, {"texture_t", ROLE_V}};
+    for (size_t i = 0; i < sizeof names / sizeof *names; i++)
+        if (tok_is(nm, n, names[i].name))
+            return names[i].role;
+    return ROLE_SKIP;
+}
+
 static dtx_status parse_header(const char *name, const char *buf, size_t len, ply_header *h,
                                dtx_error *err)
 {
@@ -332,6 +354,8 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
                     pr.role = ROLE_Y;
                 else if (tok_is(nm, n, "z"))
                     pr.role = ROLE_Z;
+                else
+                    pr.role = attr_role(nm, n);
             } else if (el->kind == EL_FACE && pr.count_type != T_NONE &&
                        (tok_is(nm, n, "vertex_indices") || tok_is(nm, n, "vertex_index"))) {
                 if (!is_int_type(pr.type))
@@ -340,6 +364,9 @@ static dtx_status parse_header(const char *name, const char *buf, size_t len, pl
                                       it.line);
                 pr.role = ROLE_INDICES;
             }
+            for (size_t k = el->first; k < h->nprop; k++)
+                if (pr.role >= ROLE_R && h->props[k].role == pr.role)
+                    pr.role = ROLE_SKIP; /* u after s, etc.: the first is kept */
             for (size_t k = el->first; k < h->nprop; k++)
                 if (pr.role != ROLE_SKIP && h->props[k].role == pr.role)
                     return dtx_seterr(err, DTX_EPARSE, "%s:%ld: duplicate property '%s'", name,
@@ -455,9 +482,17 @@ static dtx_status check_header(const char *name, const ply_header *h, size_t dat
 
 /* ------------------------------------------------------------------ body */
 
-dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
-                         const dtx_warner *w, dtx_error *err)
+static dtx_status ply_attrs_build(const char *name, const ply_header *h, const ply_elem *vel,
+                                  const double *A, const dtx_mesh *m, dtx_mesh_attrs *a,
+                                  const dtx_warner *w, dtx_error *err);
+
+/* dtx_ply_parse, and when a_out is non-NULL the vertex attributes into
+ * *a_out, with their warnings to aw (dtx_ply_parse_attrs). */
+static dtx_status ply_parse_impl(const char *name, const char *buf, size_t len, dtx_mesh *out,
+                                 dtx_mesh_attrs *a_out, const dtx_warner *aw,
+                                 const dtx_warner *w, dtx_error *err)
 {
+    double *A = NULL; /* nv x NATTR vertex attributes, when a_out */
     ply_header h;
     ply_in in;
     const ply_elem *vel, *fel;
@@ -490,7 +525,9 @@ dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh
     fcap = (size_t)fel->count;
     V = dtx_alloc((size_t)nv, 3 * sizeof *V, 0);
     F = dtx_alloc(fcap, 3 * sizeof *F, 0);
-    if (!V || !F) {
+    if (a_out)
+        A = dtx_alloc((size_t)nv, NATTR * sizeof *A, 1);
+    if (!V || !F || (a_out && !A)) {
         st = dtx_seterr(err, DTX_ENOMEM, "%s: cannot allocate %lld vertices", name, (long long)nv);
         goto fail;
     }
@@ -513,6 +550,8 @@ dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh
                     }
                     if (el->kind == EL_VERTEX && pr->role >= ROLE_X && pr->role <= ROLE_Z)
                         V[3 * item + (uint64_t)pr->role] = dv;
+                    else if (A && el->kind == EL_VERTEX && pr->role >= ROLE_R)
+                        A[NATTR * item + (uint64_t)(pr->role - ROLE_R)] = dv;
                     continue;
                 }
                 /* ---- a list: its count, then the items */
@@ -609,11 +648,17 @@ dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh
     out->nf = (int32_t)nt;
     out->V = V;
     out->F = F;
+    if (a_out && (st = ply_attrs_build(name, &h, vel, A, out, a_out, aw, err)) != DTX_OK) {
+        memset(out, 0, sizeof *out);
+        goto fail;
+    }
+    free(A);
     free(h.elems);
     free(h.props);
     return DTX_OK;
 
 fail:
+    free(A);
     free(V);
     free(F);
     free(h.elems);
@@ -621,7 +666,149 @@ fail:
     return st;
 }
 
+dtx_status dtx_ply_parse(const char *name, const char *buf, size_t len, dtx_mesh *out,
+                         const dtx_warner *w, dtx_error *err)
+{
+    return ply_parse_impl(name, buf, len, out, NULL, NULL, w, err);
+}
+
 dtx_status dtx_ply_read(const char *path, dtx_mesh *out, const dtx_warner *w, dtx_error *err)
 {
     return dtx_mesh_read_with(path, dtx_ply_parse, out, w, err);
+}
+
+/* ------------------------------------------------------------------ attributes */
+
+/* The largest value of an integer colour type (colours are scaled to
+ * [0, 1] by it); 1 for floating-point types. */
+static double colour_scale(ply_type t)
+{
+    switch (t) {
+    case T_I8:
+        return 127.0;
+    case T_U8:
+        return 255.0;
+    case T_I16:
+        return 32767.0;
+    case T_U16:
+        return 65535.0;
+    case T_I32:
+        return 2147483647.0;
+    case T_U32:
+        return 4294967295.0;
+    default:
+        return 1.0;
+    }
+}
+
+/* Per-vertex attributes from the values A (nv x NATTR) of the roles the
+ * vertex element has: colours (red, green, blue [, alpha]; integer types
+ * scaled by their largest value), normals (nx, ny, nz) and texture
+ * coordinates (u, v); per-corner indices equal to the faces. */
+static dtx_status ply_attrs_build(const char *name, const ply_header *h, const ply_elem *vel,
+                                  const double *A, const dtx_mesh *m, dtx_mesh_attrs *a,
+                                  const dtx_warner *w, dtx_error *err)
+{
+    ply_type type[NATTR];
+    int has[NATTR] = {0};
+    int32_t nv = m->nv;
+    size_t fbytes = 3 * (size_t)m->nf * sizeof *m->F;
+    memset(a, 0, sizeof *a);
+    for (int r = 0; r < NATTR; r++)
+        type[r] = T_NONE;
+    for (size_t k = vel->first; k < vel->first + vel->nprop; k++)
+        if (h->props[k].role >= ROLE_R && h->props[k].count_type == T_NONE) {
+            has[h->props[k].role - ROLE_R] = 1;
+            type[h->props[k].role - ROLE_R] = h->props[k].type;
+        }
+#define HAS(r) has[(r)-ROLE_R]
+    for (int32_t i = 0; i < nv; i++)
+        for (int r = ROLE_NX; r <= ROLE_V; r++)
+            if (HAS(r) && !isfinite(A[NATTR * (size_t)i + (size_t)(r - ROLE_R)]))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "%s: vertex %lld (0-based) has a non-finite %s", name,
+                                  (long long)i, r <= ROLE_NZ ? "normal" : "texture coordinate");
+    if (HAS(ROLE_R) && HAS(ROLE_G) && HAS(ROLE_B)) {
+        int nc = HAS(ROLE_A) ? 4 : 3, ok = 1;
+        a->colors = dtx_alloc((size_t)nv, (size_t)nc * sizeof *a->colors, 0);
+        if (!a->colors && nv > 0)
+            goto oom;
+        a->ncolor = nc;
+        for (int32_t i = 0; i < nv && ok; i++)
+            for (int c = 0; c < nc && ok; c++) {
+                double v = A[NATTR * (size_t)i + (size_t)c] / colour_scale(type[c]);
+                a->colors[(size_t)nc * i + (size_t)c] = v;
+                if (!(v >= 0 && v <= 1)) {
+                    dtx_warnf(w, "%s: vertex %lld (0-based) has colour value %g outside [0, 1]; "
+                                 "the colours are not kept",
+                              name, (long long)i, v);
+                    ok = 0;
+                }
+            }
+        if (!ok) {
+            free(a->colors);
+            a->colors = NULL;
+            a->ncolor = 0;
+        }
+    }
+    if (HAS(ROLE_NX) && HAS(ROLE_NY) && HAS(ROLE_NZ) && m->nf > 0) {
+        a->nn = nv;
+        a->normals = dtx_alloc((size_t)nv, 3 * sizeof *a->normals, 0);
+        a->normal_faces = malloc(fbytes);
+        if (!a->normals || !a->normal_faces)
+            goto oom;
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 3; k++)
+                a->normals[3 * (size_t)i + (size_t)k] =
+                    A[NATTR * (size_t)i + (size_t)(ROLE_NX - ROLE_R + k)];
+        memcpy(a->normal_faces, m->F, fbytes);
+    }
+    if (HAS(ROLE_U) && HAS(ROLE_V) && m->nf > 0) {
+        a->nuv = nv;
+        a->uv = dtx_alloc((size_t)nv, 2 * sizeof *a->uv, 0);
+        a->uv_faces = malloc(fbytes);
+        if (!a->uv || !a->uv_faces)
+            goto oom;
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 2; k++)
+                a->uv[2 * (size_t)i + (size_t)k] =
+                    A[NATTR * (size_t)i + (size_t)(ROLE_U - ROLE_R + k)];
+        memcpy(a->uv_faces, m->F, fbytes);
+    }
+#undef HAS
+    return DTX_OK;
+oom:
+    dtx_mesh_attrs_free(a);
+    return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for the vertex attributes", name);
+}
+
+dtx_status dtx_ply_parse_attrs(const char *name, const char *buf, size_t len, int32_t nf,
+                               dtx_mesh_attrs *a, const dtx_warner *w, dtx_error *err)
+{
+    dtx_mesh m;
+    dtx_status st;
+    memset(a, 0, sizeof *a);
+    st = ply_parse_impl(name, buf, len, &m, a, w, NULL, err);
+    if (st != DTX_OK)
+        return st;
+    if (m.nf != nf) {
+        dtx_mesh_attrs_free(a);
+        st = dtx_seterr(err, DTX_EINVAL, "%s: %d faces, but the mesh read has %d", name,
+                        (int)m.nf, (int)nf);
+    }
+    dtx_mesh_free(&m);
+    return st;
+}
+
+dtx_status dtx_ply_read_attrs(const char *path, int32_t nf, dtx_mesh_attrs *a,
+                              const dtx_warner *w, dtx_error *err)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    dtx_status st = dtx_file_read_all(path, &buf, &len, err);
+    memset(a, 0, sizeof *a);
+    if (st == DTX_OK)
+        st = dtx_ply_parse_attrs(path, buf, len, nf, a, w, err);
+    free(buf);
+    return st;
 }

@@ -56,6 +56,27 @@ check "the output's target mesh is the asset's (5116 vertices)" bash -c \
 check "import keeps uv, normals, materials and mtllib; the output's target mesh has them" bash -c \
     "for f in in.h5 sp04.h5; do h5dump -n \$f | grep -q '/meshes/lion-uv/uv_faces' && h5dump -n \$f | grep -q '/meshes/lion-uv/normal_faces' && h5dump -a /meshes/lion-uv/material/material_names \$f | grep -q dtx_upper && h5dump -a /meshes/lion-uv/mtllib \$f | grep -q lion-uv.mtl || exit 1; done"
 
+# Exports keep the asset: `dtx export --obj-dir` and the job's own OBJ
+# frames have the asset's vertex order, vt, usemtl groups, mtllib and
+# per-frame normals (recomputed, area-weighted around each position), and
+# positions equal to the HDF5 result.
+oxc="$DTX_SRC/tests/driver/obj_export_compare.py"
+"$DTX" export sp04.h5 /results/lion-uv/cat-poses --obj-dir sp04-exp 2> exp.log
+for k in 1 3; do
+    h5dump -d /results/lion-uv/cat-poses/positions -s "$((k - 1)),0,0" -c "1,5116,3" -b LE \
+        -o f$k.bin sp04.h5 > /dev/null
+    check "export --obj-dir frame $k: the asset's order, vt, usemtl, normals; positions = HDF5" \
+        python3 "$oxc" lion-uv.obj sp04-exp/cat-poses-0000$k.obj f$k.bin
+    check "the job's OBJ frame $k: the same" \
+        python3 "$oxc" lion-uv.obj sp04-obj/lion-uv/cat-poses/lion-uv-0000$k.obj f$k.bin
+done
+"$DTX" export sp04.h5 /results/lion-uv/cat-poses --obj-rest sp04-rest.obj 2>> exp.log
+h5dump -d /meshes/lion-uv/vertices -b LE -o rest-v.bin sp04.h5 > /dev/null
+check "export --obj-rest: the asset with its vt, usemtl and own normals" \
+    python3 "$oxc" lion-uv.obj sp04-rest.obj rest-v.bin --rest
+check "a mesh without attributes exports without them" bash -c \
+    "! grep -Eq '^(vt|vn|usemtl|mtllib) ' sp04-obj/lion/cat-poses/lion-00001.obj"
+
 # The silent failure of the issue: without welding (weld_tolerance -1) the
 # one-piece split is accepted with a warning and its seam tears open.
 job torn sp04 ', "weld_tolerance": -1'
@@ -74,4 +95,12 @@ for t in lion-seam lion-uv; do
     check "multicomponent $t frame 3: twins together, equal to the welded transfer" \
         python3 "$cmp" $t.obj mc-obj/$t/cat-poses/$t-00003.obj mc-obj/lion/cat-poses/lion-00003.obj
 done
+# A sequence stored in the asset's split order exports with the asset's
+# attributes; at the rest shape the recomputed normals are the asset's vn.
+mkdir -p restseq && cp lion-uv.obj restseq/lion-uv-rest.obj
+"$DTX" import sequence restseq -o in.h5 --name lion-uv-rest --mesh /meshes/lion-uv --dtype float64 2> /dev/null
+"$DTX" export in.h5 /sequences/lion-uv-rest --obj-dir rest-exp 2> /dev/null
+h5dump -d /sequences/lion-uv-rest/positions -b LE -o rest.bin in.h5 > /dev/null
+check "export of a split-order sequence at rest: its normals are the asset's vn" \
+    python3 "$oxc" lion-uv.obj rest-exp/lion-uv-rest-00001.obj rest.bin --rest
 finish

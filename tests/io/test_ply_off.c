@@ -994,6 +994,161 @@ static void test_bad_input_rows(void)
     }
 }
 
+
+/* ------------------------------------------------------------ attributes */
+
+static dtx_status ply_attrs(const char *s, size_t len, int32_t nf, dtx_mesh_attrs *a,
+                            warn_log *wl, dtx_error *err)
+{
+    dtx_warner w = {collect, wl};
+    char *copy = malloc(len ? len : 1);
+    dtx_status st;
+    memset(wl, 0, sizeof *wl);
+    memcpy(copy, s, len);
+    err->msg[0] = '\0';
+    st = dtx_ply_parse_attrs("a.ply", copy, len, nf, a, &w, err);
+    free(copy);
+    return st;
+}
+
+/* A quad (two triangles) with uchar RGBA colours, float normals and s, t;
+ * the tetrahedron in binary with float colours, double normals and
+ * texture_u, texture_v; each read back into dtx_mesh_attrs. */
+static void test_ply_attrs(void)
+{
+    static const char asc[] = "ply\nformat ascii 1.0\n"
+                              "element vertex 4\n"
+                              "property float x\nproperty float y\nproperty float z\n"
+                              "property float nx\nproperty float ny\nproperty float nz\n"
+                              "property uchar red\nproperty uchar green\nproperty uchar blue\n"
+                              "property uchar alpha\nproperty float s\nproperty float t\n"
+                              "element face 1\nproperty list uchar int vertex_indices\n"
+                              "end_header\n"
+                              "0 0 0 0 0 1 255 0 0 255 0 0\n"
+                              "1 0 0 0 0 1 0 255 0 255 1 0\n"
+                              "1 1 0 0 0 1 0 0 255 128 1 1\n"
+                              "0 1 0 0 0 1 51 51 51 0 0 1\n"
+                              "4 0 1 2 3\n";
+    dtx_mesh_attrs a;
+    dtx_error err;
+    warn_log wl;
+    CHECK_OK(ply_attrs(asc, strlen(asc), 2, &a, &wl, &err), &err);
+    CHECK_EQ_INT(a.ncolor, 4);
+    CHECK_EQ_INT(a.nn, 4);
+    CHECK_EQ_INT(a.nuv, 4);
+    CHECK_EQ_INT(wl.count, 0); /* the quad's warning is the mesh reader's */
+    if (a.colors && a.normals && a.uv && a.uv_faces && a.normal_faces) {
+        const int32_t F[6] = {0, 1, 2, 0, 2, 3};
+        CHECK_NEAR(a.colors[0], 1.0, 0);
+        CHECK_NEAR(a.colors[4 * 2 + 3], 128.0 / 255.0, 1e-15);
+        CHECK_NEAR(a.colors[4 * 3 + 1], 0.2, 1e-15);
+        CHECK_NEAR(a.normals[3 * 2 + 2], 1.0, 0);
+        CHECK_NEAR(a.uv[2 * 2], 1.0, 0);
+        CHECK_NEAR(a.uv[2 * 3 + 1], 1.0, 0);
+        CHECK(memcmp(a.uv_faces, F, sizeof F) == 0);
+        CHECK(memcmp(a.normal_faces, F, sizeof F) == 0);
+        CHECK_OK(dtx_mesh_attrs_validate(&a, 4, 2, "a.ply", &err), &err);
+    }
+    dtx_mesh_attrs_free(&a);
+    /* A face count other than the mesh's is refused. */
+    CHECK_EQ_INT(ply_attrs(asc, strlen(asc), 3, &a, &wl, &err), DTX_EINVAL);
+
+    /* Only some of the channels: nothing of that attribute is kept. */
+    {
+        static const char part[] = "ply\nformat ascii 1.0\nelement vertex 3\n"
+                                   "property float x\nproperty float y\nproperty float z\n"
+                                   "property float nx\nproperty float u\n"
+                                   "property uchar red\nproperty uchar green\n"
+                                   "element face 1\nproperty list uchar int vertex_indices\n"
+                                   "end_header\n0 0 0 1 0 1 2\n1 0 0 1 0 1 2\n0 1 0 1 0 1 2\n"
+                                   "3 0 1 2\n";
+        CHECK_OK(ply_attrs(part, strlen(part), 1, &a, &wl, &err), &err);
+        CHECK(!dtx_mesh_attrs_any(&a));
+        dtx_mesh_attrs_free(&a);
+    }
+    /* A non-finite normal is an error naming the vertex; a float colour
+     * outside [0, 1] drops the colours with a warning. */
+    {
+        static const char nan_n[] = "ply\nformat ascii 1.0\nelement vertex 3\n"
+                                    "property float x\nproperty float y\nproperty float z\n"
+                                    "property float nx\nproperty float ny\nproperty float nz\n"
+                                    "element face 1\nproperty list uchar int vertex_indices\n"
+                                    "end_header\n0 0 0 0 0 1\n1 0 0 0 nan 1\n0 1 0 0 0 1\n"
+                                    "3 0 1 2\n";
+        static const char big[] = "ply\nformat ascii 1.0\nelement vertex 3\n"
+                                  "property float x\nproperty float y\nproperty float z\n"
+                                  "property float red\nproperty float green\n"
+                                  "property float blue\n"
+                                  "element face 1\nproperty list uchar int vertex_indices\n"
+                                  "end_header\n0 0 0 0 0 1\n1 0 0 0 1.5 1\n0 1 0 0 0 1\n"
+                                  "3 0 1 2\n";
+        CHECK_EQ_INT(ply_attrs(nan_n, strlen(nan_n), 1, &a, &wl, &err), DTX_ENONFINITE);
+        CHECK(strstr(err.msg, "a.ply") && strstr(err.msg, "vertex 1 (0-based)") &&
+              strstr(err.msg, "normal"));
+        CHECK(!dtx_mesh_attrs_any(&a));
+        CHECK_OK(ply_attrs(big, strlen(big), 1, &a, &wl, &err), &err);
+        CHECK(a.colors == NULL);
+        CHECK_EQ_INT(wl.count, 1);
+        CHECK(strstr(wl.last, "vertex 1 (0-based)") && strstr(wl.last, "1.5"));
+        dtx_mesh_attrs_free(&a);
+    }
+
+    /* Binary, both byte orders: float RGB, double normals, texture_u/v. */
+    for (int be = 0; be <= 1; be++) {
+        const float P[4][3] = {{0, 0, 0}, {1.5f, 0, 0}, {0, -2.25f, 0}, {0, 0, 1e-3f}};
+        const int32_t T[4][3] = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}, {1, 2, 3}};
+        bin o;
+        int nok, n = snprintf((char *)o.b, sizeof o.b,
+                              "ply\nformat %s 1.0\nelement vertex 4\n"
+                              "property float x\nproperty float y\nproperty float z\n"
+                              "property float red\nproperty float green\nproperty float blue\n"
+                              "property double nx\nproperty double ny\nproperty double nz\n"
+                              "property float texture_u\nproperty float texture_v\n"
+                              "element face 4\nproperty list uchar int vertex_indices\n"
+                              "end_header\n",
+                              be ? "binary_big_endian" : "binary_little_endian");
+        o.n = (size_t)n;
+        o.be = be;
+        for (int i = 0; i < 4; i++) {
+            for (int k = 0; k < 3; k++)
+                put_f32(&o, P[i][k]);
+            for (int k = 0; k < 3; k++)
+                put_f32(&o, 0.25f * (float)(i + k) / 2.0f);
+            for (int k = 0; k < 3; k++)
+                put_f64(&o, k == i % 3 ? -1.0 : 0.0);
+            put_f32(&o, 0.125f * (float)i);
+            put_f32(&o, 1.0f - 0.125f * (float)i);
+        }
+        for (int f = 0; f < 4; f++) {
+            put_u8(&o, 3);
+            for (int k = 0; k < 3; k++)
+                put_i32(&o, T[f][k]);
+        }
+        CHECK_OK(ply_attrs((char *)o.b, o.n, 4, &a, &wl, &err), &err);
+        CHECK_EQ_INT(a.ncolor, 3);
+        CHECK_EQ_INT(a.nn, 4);
+        CHECK_EQ_INT(a.nuv, 4);
+        if (a.colors && a.normals && a.uv) {
+            CHECK_NEAR(a.colors[3 * 3 + 2], 0.25 * 5 / 2.0, 0);
+            CHECK_NEAR(a.normals[3 * 2 + 2], -1.0, 0);
+            CHECK_NEAR(a.normals[3 * 2 + 1], 0.0, 0);
+            CHECK_NEAR(a.uv[2 * 3], 0.375, 0);
+            CHECK_NEAR(a.uv[2 * 3 + 1], 0.625, 0);
+            CHECK(memcmp(a.uv_faces, T, sizeof T) == 0);
+        }
+        dtx_mesh_attrs_free(&a);
+        /* Every truncation fails cleanly, leaving nothing allocated. */
+        nok = 0;
+        for (size_t cut = 0; cut < o.n; cut++) {
+            dtx_status st = ply_attrs((char *)o.b, cut, 4, &a, &wl, &err);
+            nok += st == DTX_OK;
+            CHECK(st == DTX_OK || (err.msg[0] && !dtx_mesh_attrs_any(&a)));
+            dtx_mesh_attrs_free(&a);
+        }
+        CHECK_EQ_INT(nok, 0);
+    }
+}
+
 int main(void)
 {
     test_ply_ascii();
@@ -1002,6 +1157,7 @@ int main(void)
     test_ply_fan_ascii();
     test_ply_bad();
     test_ply_truncation();
+    test_ply_attrs();
     test_off_good();
     test_off_bad();
     test_off_truncation();
