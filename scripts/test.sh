@@ -93,6 +93,12 @@ if [[ $sanitize_tests == 1 ]]; then
     # LeakSanitizer's tracer crashes at exit in ranks OpenMPI starts unbound
     # (--bind-to none) on this kind of machine: this mpirun drops that flag.
     export PATH="$repo/tests/sanitizer-bin:$PATH"
+    # hwloc (under MPI_Init) loads its GL and OpenCL plugins when their
+    # libraries are on the machine, which Blender and chromium bring; the
+    # dynamic TLS of libOpenCL's ICD loader then crashes LeakSanitizer's
+    # tracer at exit ("DTLS ... Tracer caught signal 11") in every process
+    # that calls MPI_Init.  dtx uses neither: leave them out.
+    export HWLOC_COMPONENTS=${HWLOC_COMPONENTS:--gl,-opencl}
     run_pass build-asan --sanitize
 fi
 
