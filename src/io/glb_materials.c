@@ -124,8 +124,7 @@ dtx_status dtx_mtl_parse(const char *name, const char *buf, size_t len, dtx_mtl 
         } else if (n == 2 && memcmp(k, "Kd", 2) == 0) {
             if (numbers(p, e, cur->kd, 3) != 3) {
                 dtx_mtl_free(out);
-                return dtx_seterr(err, DTX_EPARSE, "%s:%ld: Kd needs three numbers", name,
-                                  it.line);
+                return dtx_seterr(err, DTX_EPARSE, "%s:%ld: Kd needs three numbers", name, it.line);
             }
             cur->has_kd = 1;
         } else if ((n == 1 && *k == 'd') || (n == 2 && memcmp(k, "Tr", 2) == 0)) {
@@ -300,8 +299,7 @@ static unsigned char *read_image(dtx_glb_materials *m, const char *path, size_t 
 static float clamp01(double x) { return x < 0.0 ? 0.0f : x > 1.0 ? 1.0f : (float)x; }
 
 dtx_status dtx_glb_materials_load(hid_t f, const char *file, const char *group,
-                                  const dtx_mesh_attrs *a, dtx_glb_materials *out,
-                                  dtx_error *err)
+                                  const dtx_mesh_attrs *a, dtx_glb_materials *out, dtx_error *err)
 {
     char obj[4096], mtl_path[4096], lib[4096];
     dtx_mtl lib_m;
@@ -342,12 +340,14 @@ dtx_status dtx_glb_materials_load(hid_t f, const char *file, const char *group,
     }
     if (!is_file(mtl_path)) {
         if (out->obj_path)
-            note(out, "material library %s not found beside %s or %s (materials without "
-                      "colours)",
+            note(out,
+                 "material library %s not found beside %s or %s (materials without "
+                 "colours)",
                  lib, out->obj_path, file);
         else
-            note(out, "the asset's OBJ was not found (source attributes from %s:%s) and %s is "
-                      "not beside %s (materials without colours)",
+            note(out,
+                 "the asset's OBJ was not found (source attributes from %s:%s) and %s is "
+                 "not beside %s (materials without colours)",
                  file, group, lib, file);
         return DTX_OK;
     }

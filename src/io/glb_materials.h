@@ -62,8 +62,7 @@ typedef struct {
  * file) whose attributes are a (a->nmat materials; none: out->n = 0).
  * DTX_ENOMEM only. */
 dtx_status dtx_glb_materials_load(hid_t f, const char *file, const char *group,
-                                  const dtx_mesh_attrs *a, dtx_glb_materials *out,
-                                  dtx_error *err);
+                                  const dtx_mesh_attrs *a, dtx_glb_materials *out, dtx_error *err);
 void dtx_glb_materials_free(dtx_glb_materials *m);
 
 #endif /* DTX_GLB_MATERIALS_H */

@@ -265,8 +265,7 @@ static void gverts_free(gverts *g)
     memset(g, 0, sizeof *g);
 }
 
-static dtx_status gverts_make(const dtx_mesh *m, const dtx_mesh_attrs *a, gverts *g,
-                              dtx_error *err)
+static dtx_status gverts_make(const dtx_mesh *m, const dtx_mesh_attrs *a, gverts *g, dtx_error *err)
 {
     const int use_uv = a && a->uv, use_n = a && a->normals;
     size_t cap = (size_t)m->nv + 3 * (size_t)m->nf;
@@ -384,8 +383,8 @@ static cJSON *make_json(const doc_in *d, const dtx_glb_opts *o, jctx *j)
     const layout *L = d->L;
     const int64_t T = d->T, ng = d->g->ng;
     const char *name = o->name ? o->name : "dtx";
-    cJSON *root = cJSON_CreateObject(), *asset, *x, *prims, *names, *weights, *accs, *views,
-          *anim, *smp, *ch, *mextras;
+    cJSON *root = cJSON_CreateObject(), *asset, *x, *prims, *names, *weights, *accs, *views, *anim,
+          *smp, *ch, *mextras;
     char buf[64];
     /* Accessor and view numbers: positions, normals, [uvs], the primitives'
      * indices, then two morph accessors a frame, times, weights. */
@@ -531,8 +530,8 @@ static cJSON *make_json(const doc_in *d, const dtx_glb_opts *o, jctx *j)
         x = accessor(j, accs, v_morph, 24u * (uint64_t)ng * (uint64_t)k, GL_FLOAT, ng, "VEC3");
         jvec3(j, x, "min", d->B + 6 * k);
         jvec3(j, x, "max", d->B + 6 * k + 3);
-        accessor(j, accs, v_morph, 24u * (uint64_t)ng * (uint64_t)k + 12u * (uint64_t)ng,
-                 GL_FLOAT, ng, "VEC3");
+        accessor(j, accs, v_morph, 24u * (uint64_t)ng * (uint64_t)k + 12u * (uint64_t)ng, GL_FLOAT,
+                 ng, "VEC3");
     }
     x = accessor(j, accs, v_times, 0, GL_FLOAT, T, "SCALAR");
     jflt(j, jarr(j, x, "min"), NULL, d->times[0]);
@@ -622,8 +621,8 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
         nmat = at->material ? at->nmat : 0;
         for (int32_t i = 0; at->uv && i < at->nuv; i++)
             if (!fits_f32(at->uv[2 * (size_t)i]) || !fits_f32(1.0 - at->uv[2 * (size_t)i + 1]))
-                return dtx_seterr(err, DTX_ENONFINITE, "%s: uv %d (0-based) is not a finite float32",
-                                  path, (int)i);
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "%s: uv %d (0-based) is not a finite float32", path, (int)i);
     }
     if (opts->materials && opts->nmaterials != nmat)
         return dtx_seterr(err, DTX_EINVAL, "%s: %d materials given for a mesh with %d", path,
@@ -631,7 +630,8 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     for (int32_t k = 0; opts->materials && k < nmat; k++) {
         const dtx_glb_material *mk = opts->materials + k;
         if (mk->image && !image_mime(mk->image, mk->image_len))
-            return dtx_seterr(err, DTX_EINVAL, "%s: material %d (%s): the image is neither PNG "
+            return dtx_seterr(err, DTX_EINVAL,
+                              "%s: material %d (%s): the image is neither PNG "
                               "nor JPEG",
                               path, (int)k, mk->name ? mk->name : "unnamed");
         for (int q = 0; mk->has_color && q < 4; q++)

@@ -101,9 +101,9 @@ typedef dtx_status (*dtx_glb_frame_fn)(void *ctx, int64_t k, double *X, dtx_erro
 /* One glTF material: attribute material id m of the mesh gets
  * materials[m]. */
 typedef struct {
-    const char *name;      /* NULL: "material-M" */
-    int has_color;         /* base_color holds the .mtl's Kd (and d as alpha) */
-    float base_color[4];   /* RGBA in [0, 1] */
+    const char *name;           /* NULL: "material-M" */
+    int has_color;              /* base_color holds the .mtl's Kd (and d as alpha) */
+    float base_color[4];        /* RGBA in [0, 1] */
     const unsigned char *image; /* PNG or JPEG bytes (NULL: none) */
     size_t image_len;
     const char *image_name; /* the image's name in the file (NULL: none) */
