@@ -315,7 +315,11 @@ dtx_status dtx_glb_materials_load(hid_t f, const char *file, const char *group,
         return dtx_seterr(err, DTX_ENOMEM, "out of memory for %d materials", (int)a->nmat);
     out->n = a->nmat;
     for (int32_t k = 0; k < a->nmat; k++)
-        out->mat[k].name = a->material_names ? a->material_names[k] : NULL;
+        if (a->material_names && a->material_names[k] &&
+            !(out->mat[k].name = strdup(a->material_names[k]))) {
+            dtx_glb_materials_free(out);
+            return dtx_seterr(err, DTX_ENOMEM, "out of memory for %d materials", (int)a->nmat);
+        }
     if (!a->mtllib || !a->mtllib[0]) {
         note(out, "%s names no material library (mtllib): materials without colours", group);
         return DTX_OK;
@@ -404,6 +408,7 @@ void dtx_glb_materials_free(dtx_glb_materials *m)
     for (int32_t k = 0; k < m->n; k++) {
         free((void *)m->mat[k].image);
         free((void *)m->mat[k].image_name);
+        free((void *)m->mat[k].name);
     }
     free(m->mat);
     free(m->obj_path);

@@ -51,7 +51,7 @@ void dtx_mtl_free(dtx_mtl *m);
 
 typedef struct {
     int32_t n;
-    dtx_glb_material *mat; /* n entries, for dtx_glb_opts.materials */
+    dtx_glb_material *mat; /* n entries, for dtx_glb_opts.materials (owning their strings) */
     char *obj_path;        /* the asset's OBJ when found (NULL otherwise) */
     char *mtl_path;        /* the .mtl used (NULL: none found) */
     int nimages;           /* images embedded */
