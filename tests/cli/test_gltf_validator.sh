@@ -108,6 +108,19 @@ else
     bad "lion-uv.glb: primitives, materials or image not as asked"; cat export-uv.log
 fi
 
+# Without its .mtl the export still works, with a warning naming what is
+# missing, and materials without colour.
+mv asset/lion-uv.mtl asset/lion-uv.mtl.away
+if "$DTX" export out-uv.h5 $R --glb lion-nomtl.glb 2> nomtl.log &&
+    grep -q "warning: lion-nomtl.glb: material library lion-uv.mtl not found beside .*asset/lion-uv.obj" nomtl.log &&
+    ! grep -q baseColor <(head -c 400000 lion-nomtl.glb | tr -d '\0'); then
+    ok "no .mtl beside the asset: a warning naming it, materials without colour"
+    valid lion-nomtl.glb
+else
+    bad "no .mtl beside the asset: $(cat nomtl.log)"
+fi
+mv asset/lion-uv.mtl.away asset/lion-uv.mtl
+
 # ---- per-corner UVs: a quad of two triangles whose shared edge has
 # different UVs on its two sides, so two vertices get copies
 cat > corner.obj <<'EOF2'
