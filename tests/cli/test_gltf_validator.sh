@@ -6,7 +6,13 @@
 # 5,000 and 10,000 frames of a tetrahedron (the animation's weights are a
 # sparse accessor, so the size grows linearly with the frames: the bytes
 # per frame between 2,500 and 5,000 frames equal those between 5,000 and
-# 10,000).  Any error or warning fails; infos and hints are printed.  A
+# 10,000).  The lion split along a UV seam with two materials (dtx
+# generate uvsplit, a checker PNG on one of them through map_Kd) and its
+# result: TEXCOORD_0, the asset's normals, morph normals, two primitives,
+# two materials and an embedded image; the same without its .mtl (a
+# warning, materials without colour); and an OBJ whose UVs are per corner
+# (vt indices unlike v indices), whose glb splits vertices and says so in
+# extras.  Any error or warning fails; infos and hints are printed.  A
 # copy with a broken accessor must be refused, so the check itself can
 # fail.  Exits 77 (ctest: skipped) without node or the validator, except
 # under CI=true, where that is a failure: scripts/setup.sh installs both
