@@ -55,7 +55,8 @@
  * entries (UNSIGNED_INT index k * nframes + k, value 1.0f).  The file
  * therefore grows linearly with the frames (per frame: one morph target of
  * 24 * ng bytes for ng glTF vertices, positions and normals, 12 bytes of
- * time and sparse entry, and about 250 bytes of JSON); DTX_GLB_MAX_FRAMES
+ * time and sparse entry, and about 370 bytes of JSON, 35 more for each
+ * further primitive, which lists the targets too); DTX_GLB_MAX_FRAMES
  * keeps the largest sparse index, nframes^2 - 1, below 2^32.  (Readers that
  * expand the accessor, as Blender's importer does, still hold nframes^2
  * floats in memory.)
