@@ -25,7 +25,9 @@
 
 #include "options.h"
 
+#include "glb_materials.h"
 #include "gltf.h"
+#include "h5mesh_attrs.h"
 #include "h5layout.h"
 #include "h5mesh_attrs.h"
 #include "mdd.h"
@@ -384,14 +386,20 @@ static dtx_status write_mdd(frame_source *s, const export_args *a, double *X, dt
     return st;
 }
 
+/* The glb keeps the asset: the mesh's stored attributes (UVs, normals,
+ * materials) and, from the .mtl its OBJ named, base colours and textures
+ * (glb_materials.h); what is not found is a warning, not an error. */
 static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mesh *mesh,
-                            const char *file, dtx_error *err)
+                            hid_t f, const char *file, dtx_error *err)
 {
     dtx_glb_opts o;
-    char source[DTX_H5_PATH_MAX + 4096];
+    dtx_mesh_attrs attrs;
+    dtx_glb_materials mats;
+    char source[DTX_H5_PATH_MAX + 4096], group[DTX_H5_PATH_MAX + 16];
     const char *name = strrchr(a->item, '/');
     dtx_status st;
     memset(&o, 0, sizeof o);
+    memset(&mats, 0, sizeof mats);
     o.seconds_per_frame = (double)s->stride / s->fps;
     o.step = a->step;
     o.name = name && name[1] ? name + 1 : a->item;
@@ -399,11 +407,30 @@ static dtx_status write_glb(frame_source *s, const export_args *a, const dtx_mes
     o.label_step = s->stride;
     snprintf(source, sizeof source, "%.4000s:%s", file, a->item);
     o.source = source;
-    st = dtx_glb_write(a->glb, mesh, exported_frames(s), read_frame, s, &o, err);
+    snprintf(group, sizeof group, "%s/%s", a->item, s->is_result ? "target" : "rest");
+    st = dtx_h5_read_mesh_attrs(f, group, mesh->nv, mesh->nf, &attrs, err);
     if (st == DTX_OK)
-        fprintf(stderr, "dtx: %lld frames as morph targets -> %s (glTF binary, %.4g s apart, %s)\n",
+        st = dtx_glb_materials_load(f, file, group, &attrs, &mats, err);
+    if (st == DTX_OK && mats.note[0])
+        fprintf(stderr, "dtx: warning: %s: %s\n", a->glb, mats.note);
+    if (st == DTX_OK && mats.nimages > 0 && !attrs.uv)
+        fprintf(stderr, "dtx: warning: %s: the mesh has no UVs, so its texture is not embedded\n",
+                a->glb);
+    if (st == DTX_OK) {
+        o.attrs = &attrs;
+        o.materials = mats.n ? mats.mat : NULL;
+        o.nmaterials = mats.n;
+        st = dtx_glb_write(a->glb, mesh, exported_frames(s), read_frame, s, &o, err);
+    }
+    if (st == DTX_OK)
+        fprintf(stderr,
+                "dtx: %lld frames as morph targets -> %s (glTF binary, %.4g s apart, %s%s%s%s)\n",
                 (long long)exported_frames(s), a->glb, o.seconds_per_frame,
-                a->step ? "STEP" : "LINEAR");
+                a->step ? "STEP" : "LINEAR", attrs.uv ? ", UVs" : "",
+                attrs.normals ? ", the asset's normals" : "",
+                mats.n ? (mats.nimages ? ", materials with textures" : ", materials") : "");
+    dtx_glb_materials_free(&mats);
+    dtx_mesh_attrs_free(&attrs);
     return st;
 }
 
@@ -653,7 +680,7 @@ int dtx_cmd_export(int argc, char **argv)
     if (st == DTX_OK && a.mdd)
         st = write_mdd(&s, &a, X, &err);
     if (st == DTX_OK && a.glb)
-        st = write_glb(&s, &a, &mesh, a.input, &err);
+        st = write_glb(&s, &a, &mesh, f, a.input, &err);
     if (st == DTX_OK && a.obj_dir)
         st = write_obj_dir(f, &s, &a, &mesh, X, &err);
     if (st != DTX_OK) {

@@ -1,10 +1,12 @@
 /*
  * gltf.c: the .glb writer (layout in gltf.h).
  *
- * Phases: check the arguments; rest positions and normals in float32;
- * pass 1 over the frames for the morph targets' min/max; the JSON document
- * (cJSON) and the byte layout; then header, JSON chunk and BIN chunk
- * (pass 2 over the frames writes the deltas) into an atomic file.
+ * Phases: check the arguments; the glTF vertices (one per distinct corner
+ * attribute combination) and the primitives (faces grouped by material);
+ * rest positions, normals and UVs in float32; pass 1 over the frames for
+ * the morph targets' min/max; the JSON document (cJSON) and the byte
+ * layout; then header, JSON chunk and BIN chunk (pass 2 over the frames
+ * writes the deltas) into an atomic file.
  *
  * Numbers that must be exact in the JSON (accessor min/max, which
  * validators compare with the data, and byte counts that may exceed
@@ -16,6 +18,7 @@
 #include "gltf.h"
 
 #include "atomic_file.h"
+#include "weld.h"
 
 #include <cjson/cJSON.h>
 
@@ -124,6 +127,12 @@ static void jvec3(jctx *j, cJSON *acc, const char *key, const float *v)
         jflt(j, a, NULL, v[c]);
 }
 
+static void put_u16(unsigned char *p, uint32_t v)
+{
+    p[0] = (unsigned char)(v & 0xffu);
+    p[1] = (unsigned char)((v >> 8) & 0xffu);
+}
+
 static void buffer_view(jctx *j, cJSON *views, uint64_t off, uint64_t len, int stride, int target)
 {
     cJSON *v = jobj(j, views, NULL);
@@ -151,34 +160,41 @@ static cJSON *accessor(jctx *j, cJSON *accs, int view, uint64_t off, int ctype, 
 
 /* ------------------------------------------------------------ geometry */
 
-/* Area-weighted vertex normals (the cross product of two edges sums twice
- * the area times the unit normal), normalised; a vertex whose faces have
- * no area gets +z.  N: nv x 3 floats, unit length to float32 rounding. */
-static void vertex_normals(const dtx_mesh *m, double *acc, float *N)
+/* Area-weighted unit normals of positions X (nv x 3) on the faces F,
+ * summed over weld classes (wmap: nv -> [0, nw), NULL: none) so that
+ * vertices at one position share one normal.  acc: nw x 3 scratch; N: nv x
+ * 3 doubles.  A class whose faces have no area gets +z. */
+static void smooth_normals(const double *X, int32_t nv, const int32_t *F, int32_t nf,
+                           const int32_t *wmap, int32_t nw, double *acc, double *N)
 {
-    memset(acc, 0, 3 * (size_t)m->nv * sizeof *acc);
-    for (int32_t f = 0; f < m->nf; f++) {
-        const int32_t *t = m->F + 3 * (size_t)f;
-        const double *a = m->V + 3 * (size_t)t[0], *b = m->V + 3 * (size_t)t[1],
-                     *c = m->V + 3 * (size_t)t[2];
+    memset(acc, 0, 3 * (size_t)nw * sizeof *acc);
+    for (int32_t f = 0; f < nf; f++) {
+        const int32_t *t = F + 3 * (size_t)f;
+        const double *a = X + 3 * (size_t)t[0], *b = X + 3 * (size_t)t[1],
+                     *c = X + 3 * (size_t)t[2];
         double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
         double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
         double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
                        e1[0] * e2[1] - e1[1] * e2[0]};
-        for (int k = 0; k < 3; k++)
+        for (int k = 0; k < 3; k++) {
+            int32_t w = wmap ? wmap[t[k]] : t[k];
             for (int c2 = 0; c2 < 3; c2++)
-                acc[3 * (size_t)t[k] + c2] += n[c2];
+                acc[3 * (size_t)w + c2] += n[c2];
+        }
     }
-    for (int32_t i = 0; i < m->nv; i++) {
-        double *n = acc + 3 * (size_t)i;
+    for (int32_t w = 0; w < nw; w++) {
+        double *n = acc + 3 * (size_t)w;
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
         if (!(len > 0.0) || !isfinite(len)) {
             n[0] = 0.0, n[1] = 0.0, n[2] = 1.0;
             len = 1.0;
         }
         for (int c = 0; c < 3; c++)
-            N[3 * (size_t)i + c] = (float)(n[c] / len);
+            n[c] /= len;
     }
+    for (int32_t i = 0; i < nv; i++)
+        for (int c = 0; c < 3; c++)
+            N[3 * (size_t)i + c] = acc[3 * (size_t)(wmap ? wmap[i] : i) + c];
 }
 
 /* Per-target bounds of the deltas: T x 6 floats (min xyz, max xyz). */
@@ -227,39 +243,155 @@ static dtx_status frame_deltas(const char *path, const dtx_mesh *rest, int64_t k
     return DTX_OK;
 }
 
+/* ------------------------------------------------------------ glTF vertices */
+
+/* The glTF vertices: one per distinct (vertex, uv index, normal index) of
+ * the face corners, the first of dtx vertex i being glTF vertex i (gltf.h).
+ * of[g]: the dtx vertex of glTF vertex g; t[g], n[g]: its uv and normal
+ * index (-1: none); GF: nf x 3 glTF vertex indices.  Arrays hold nv + 3 nf
+ * entries (the most there can be). */
+typedef struct {
+    int32_t ng;
+    int32_t *of, *t, *n, *next, *GF;
+} gverts;
+
+static void gverts_free(gverts *g)
+{
+    free(g->of);
+    free(g->t);
+    free(g->n);
+    free(g->next);
+    free(g->GF);
+    memset(g, 0, sizeof *g);
+}
+
+static dtx_status gverts_make(const dtx_mesh *m, const dtx_mesh_attrs *a, gverts *g, dtx_error *err)
+{
+    const int use_uv = a && a->uv, use_n = a && a->normals;
+    size_t cap = (size_t)m->nv + 3 * (size_t)m->nf;
+    memset(g, 0, sizeof *g);
+    g->of = dtx_alloc(cap, sizeof *g->of, 0);
+    g->t = dtx_alloc(cap, sizeof *g->t, 0);
+    g->n = dtx_alloc(cap, sizeof *g->n, 0);
+    g->next = dtx_alloc(cap, sizeof *g->next, 0);
+    g->GF = dtx_alloc(3 * (size_t)m->nf, sizeof *g->GF, 0);
+    if (!g->of || !g->t || !g->n || !g->next || !g->GF) {
+        gverts_free(g);
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory for %d vertices", (int)m->nv);
+    }
+    for (int32_t i = 0; i < m->nv; i++) {
+        g->of[i] = i;
+        g->t[i] = g->n[i] = -2; /* no corner yet */
+        g->next[i] = -1;
+    }
+    g->ng = m->nv;
+    for (size_t c = 0; c < 3 * (size_t)m->nf; c++) {
+        int32_t v = m->F[c], t = use_uv ? a->uv_faces[c] : -1, n = use_n ? a->normal_faces[c] : -1;
+        int32_t x = v, last = v;
+        if (g->t[v] == -2) {
+            g->t[v] = t, g->n[v] = n;
+        } else {
+            while (x >= 0 && !(g->t[x] == t && g->n[x] == n))
+                last = x, x = g->next[x];
+            if (x < 0) {
+                x = g->ng++;
+                g->of[x] = v, g->t[x] = t, g->n[x] = n, g->next[x] = -1;
+                g->next[last] = x;
+            }
+        }
+        g->GF[c] = x;
+    }
+    for (int32_t i = 0; i < m->nv; i++)
+        if (g->t[i] == -2) /* a vertex no face uses */
+            g->t[i] = g->n[i] = -1;
+    return DTX_OK;
+}
+
 /* ------------------------------------------------------------ the writer */
+
+/* A primitive: the faces of one material (-1: none), in face order. */
+typedef struct {
+    int32_t material, nf;
+    uint64_t off; /* byte offset of its indices in the indices view */
+} prim_t;
 
 /* Sizes and offsets of the BIN chunk, in bytes. */
 typedef struct {
-    uint64_t pos, nrm, idx, idx_len, morph, morph_len, times, sp_idx, sp_val, total;
-    int ushort; /* indices as UNSIGNED_SHORT */
+    uint64_t pos, nrm, uv, idx, idx_len, morph, morph_len, times, sp_idx, sp_val, total;
+    uint64_t *img; /* image k's offset */
+    int ushort;    /* indices as UNSIGNED_SHORT */
+    int has_uv, nimg;
 } layout;
 
-static void make_layout(const dtx_mesh *m, int64_t T, layout *L)
+static void make_layout(int32_t ng, int32_t nf, int has_uv, const dtx_glb_material *mat,
+                        int32_t nmat, int64_t T, layout *L)
 {
-    uint64_t vbytes = 12u * (uint64_t)m->nv;
-    L->ushort = m->nv <= 65535; /* 65535 itself is the primitive-restart value */
+    uint64_t vbytes = 12u * (uint64_t)ng, at;
+    L->has_uv = has_uv;
+    L->ushort = ng <= 65535; /* 65535 itself is the primitive-restart value */
     L->pos = 0;
     L->nrm = vbytes;
-    L->idx = 2 * vbytes;
-    L->idx_len = 3u * (uint64_t)m->nf * (L->ushort ? 2u : 4u);
-    L->morph = align4(L->idx + L->idx_len);
-    L->morph_len = vbytes * (uint64_t)T;
+    L->uv = 2 * vbytes;
+    L->idx = L->uv + (has_uv ? 8u * (uint64_t)ng : 0u);
+    L->idx_len = 3u * (uint64_t)nf * (L->ushort ? 2u : 4u);
+    at = align4(L->idx + L->idx_len);
+    L->nimg = 0;
+    for (int32_t m = 0; m < nmat; m++)
+        if (has_uv && mat && mat[m].image && mat[m].image_len > 0) {
+            if (L->img)
+                L->img[L->nimg] = at;
+            L->nimg++;
+            at = align4(at + mat[m].image_len);
+        }
+    L->morph = at;
+    L->morph_len = 2u * vbytes * (uint64_t)T;
     L->times = L->morph + L->morph_len;
     L->sp_idx = L->times + 4u * (uint64_t)T;
     L->sp_val = L->sp_idx + 4u * (uint64_t)T;
     L->total = L->sp_val + 4u * (uint64_t)T;
 }
 
-/* The JSON document.  B: T x 6 delta bounds; times: T floats. */
-static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const float *pmin,
-                        const float *pmax, const float *B, const float *times,
-                        const dtx_glb_opts *o, jctx *j)
+/* "image/png", "image/jpeg" or NULL, from the first bytes. */
+static const char *image_mime(const unsigned char *p, size_t n)
 {
+    static const unsigned char png[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+    if (n >= 8 && memcmp(p, png, 8) == 0)
+        return "image/png";
+    if (n >= 3 && p[0] == 0xff && p[1] == 0xd8 && p[2] == 0xff)
+        return "image/jpeg";
+    return NULL;
+}
+
+/* Everything make_json needs. */
+typedef struct {
+    const dtx_mesh *m;
+    const gverts *g;
+    int64_t T;
+    const layout *L;
+    const prim_t *prims;
+    int nprims;
+    const dtx_glb_material *mat; /* nmat (names only when no colours) */
+    const char *const *mat_names;
+    int32_t nmat;
+    const float *pmin, *pmax, *B, *times;
+} doc_in;
+
+/* The JSON document.  B: T x 6 delta bounds; times: T floats. */
+static cJSON *make_json(const doc_in *d, const dtx_glb_opts *o, jctx *j)
+{
+    const dtx_mesh *m = d->m;
+    const layout *L = d->L;
+    const int64_t T = d->T, ng = d->g->ng;
     const char *name = o->name ? o->name : "dtx";
-    cJSON *root = cJSON_CreateObject(), *asset, *x, *prim, *targets, *names, *weights, *accs,
-          *views, *anim, *smp, *ch;
+    cJSON *root = cJSON_CreateObject(), *asset, *x, *prims, *names, *weights, *accs, *views, *anim,
+          *smp, *ch, *mextras;
     char buf[64];
+    /* Accessor and view numbers: positions, normals, [uvs], the primitives'
+     * indices, then two morph accessors a frame, times, weights. */
+    const int64_t a_uv = 2, a_idx = L->has_uv ? 3 : 2, a_morph = a_idx + d->nprims,
+                  a_times = a_morph + 2 * T, a_w = a_times + 1;
+    const int v_idx = L->has_uv ? 3 : 2, v_img = v_idx + 1, v_morph = v_img + L->nimg,
+              v_times = v_morph + 1;
     if (!root) {
         j->oom = 1;
         return NULL;
@@ -278,33 +410,89 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
     jint(j, x, "mesh", 0);
     jstr(j, x, "name", name);
 
-    /* ---- mesh: one primitive with one morph target per frame */
+    /* ---- mesh: one primitive a material, sharing one morph target a frame */
     x = jobj(j, jarr(j, root, "meshes"), NULL);
     jstr(j, x, "name", name);
-    prim = jobj(j, jarr(j, x, "primitives"), NULL);
+    prims = jarr(j, x, "primitives");
     weights = jarr(j, x, "weights");
-    names = jarr(j, jobj(j, x, "extras"), "targetNames");
-    {
-        cJSON *attr = jobj(j, prim, "attributes");
+    mextras = jobj(j, x, "extras");
+    names = jarr(j, mextras, "targetNames");
+    for (int p = 0; p < d->nprims && !j->oom; p++) {
+        cJSON *prim = jobj(j, prims, NULL), *attr = jobj(j, prim, "attributes"), *targets;
         jint(j, attr, "POSITION", 0);
         jint(j, attr, "NORMAL", 1);
+        if (L->has_uv)
+            jint(j, attr, "TEXCOORD_0", a_uv);
+        jint(j, prim, "indices", a_idx + p);
+        if (d->prims[p].material >= 0)
+            jint(j, prim, "material", d->prims[p].material);
+        jint(j, prim, "mode", GL_TRIANGLES);
+        targets = jarr(j, prim, "targets");
+        for (int64_t k = 0; k < T && !j->oom; k++) {
+            cJSON *t = jobj(j, targets, NULL);
+            jint(j, t, "POSITION", a_morph + 2 * k);
+            jint(j, t, "NORMAL", a_morph + 2 * k + 1);
+        }
     }
-    jint(j, prim, "indices", 2);
-    jint(j, prim, "mode", GL_TRIANGLES);
-    targets = jarr(j, prim, "targets");
     for (int64_t k = 0; k < T && !j->oom; k++) {
-        jint(j, jobj(j, targets, NULL), "POSITION", 3 + k);
         jint(j, weights, NULL, 0);
         snprintf(buf, sizeof buf, "frame-%05lld", (long long)(o->label_first + k * o->label_step));
         jstr(j, names, NULL, buf);
+    }
+    if (ng > m->nv) {
+        cJSON *cp = jobj(j, mextras, "dtx_vertex_copies"), *of;
+        jint(j, cp, "vertices", m->nv);
+        of = jarr(j, cp, "copy_of");
+        for (int64_t g = m->nv; g < ng && !j->oom; g++)
+            jint(j, of, NULL, d->g->of[g]);
+    }
+
+    /* ---- materials, textures, images */
+    if (d->nmat > 0) {
+        cJSON *mats = jarr(j, root, "materials"), *texs = NULL, *imgs = NULL;
+        int img = 0;
+        for (int32_t k = 0; k < d->nmat && !j->oom; k++) {
+            const dtx_glb_material *mk = d->mat ? d->mat + k : NULL;
+            cJSON *mo = jobj(j, mats, NULL), *pbr;
+            if (mk && mk->name)
+                jstr(j, mo, "name", mk->name);
+            else if (d->mat_names && d->mat_names[k])
+                jstr(j, mo, "name", d->mat_names[k]);
+            else {
+                snprintf(buf, sizeof buf, "material-%d", (int)k);
+                jstr(j, mo, "name", buf);
+            }
+            pbr = jobj(j, mo, "pbrMetallicRoughness");
+            if (mk && L->has_uv && mk->image && mk->image_len > 0) {
+                cJSON *io;
+                if (!texs) {
+                    texs = jarr(j, root, "textures");
+                    imgs = jarr(j, root, "images");
+                }
+                jint(j, jobj(j, pbr, "baseColorTexture"), "index", img);
+                jint(j, jobj(j, texs, NULL), "source", img);
+                io = jobj(j, imgs, NULL);
+                if (mk->image_name)
+                    jstr(j, io, "name", mk->image_name);
+                jint(j, io, "bufferView", v_img + img);
+                jstr(j, io, "mimeType", image_mime(mk->image, mk->image_len));
+                img++;
+            } else if (mk && mk->has_color) {
+                cJSON *c = jarr(j, pbr, "baseColorFactor");
+                for (int q = 0; q < 4; q++)
+                    jflt(j, c, NULL, mk->base_color[q]);
+            }
+            /* OBJ materials are dielectric (glTF's default is metal). */
+            jint(j, pbr, "metallicFactor", 0);
+        }
     }
 
     /* ---- animation: the weights, one-hot per key (a sparse accessor) */
     anim = jobj(j, jarr(j, root, "animations"), NULL);
     jstr(j, anim, "name", "frames");
     smp = jobj(j, jarr(j, anim, "samplers"), NULL);
-    jint(j, smp, "input", 3 + T);
-    jint(j, smp, "output", 4 + T);
+    jint(j, smp, "input", a_times);
+    jint(j, smp, "output", a_w);
     jstr(j, smp, "interpolation", o->step ? "STEP" : "LINEAR");
     ch = jobj(j, jarr(j, anim, "channels"), NULL);
     jint(j, ch, "sampler", 0);
@@ -315,29 +503,39 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
     /* ---- buffer, views, accessors */
     jint(j, jobj(j, jarr(j, root, "buffers"), NULL), "byteLength", (int64_t)L->total);
     views = jarr(j, root, "bufferViews");
-    buffer_view(j, views, L->pos, 12u * (uint64_t)m->nv, 12, GL_ARRAY_BUFFER);
-    buffer_view(j, views, L->nrm, 12u * (uint64_t)m->nv, 12, GL_ARRAY_BUFFER);
+    buffer_view(j, views, L->pos, 12u * (uint64_t)ng, 12, GL_ARRAY_BUFFER);
+    buffer_view(j, views, L->nrm, 12u * (uint64_t)ng, 12, GL_ARRAY_BUFFER);
+    if (L->has_uv)
+        buffer_view(j, views, L->uv, 8u * (uint64_t)ng, 8, GL_ARRAY_BUFFER);
     buffer_view(j, views, L->idx, L->idx_len, 0, GL_ELEMENT_ARRAY_BUFFER);
+    for (int32_t k = 0, img = 0; k < d->nmat && d->mat; k++)
+        if (L->has_uv && d->mat[k].image && d->mat[k].image_len > 0)
+            buffer_view(j, views, L->img[img++], d->mat[k].image_len, 0, 0);
     buffer_view(j, views, L->morph, L->morph_len, 12, GL_ARRAY_BUFFER);
     buffer_view(j, views, L->times, 4u * (uint64_t)T, 0, 0);
     buffer_view(j, views, L->sp_idx, 4u * (uint64_t)T, 0, 0);
     buffer_view(j, views, L->sp_val, 4u * (uint64_t)T, 0, 0);
 
     accs = jarr(j, root, "accessors");
-    x = accessor(j, accs, 0, 0, GL_FLOAT, m->nv, "VEC3");
-    jvec3(j, x, "min", pmin);
-    jvec3(j, x, "max", pmax);
-    accessor(j, accs, 1, 0, GL_FLOAT, m->nv, "VEC3");
-    accessor(j, accs, 2, 0, L->ushort ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT, 3 * (int64_t)m->nf,
-             "SCALAR");
+    x = accessor(j, accs, 0, 0, GL_FLOAT, ng, "VEC3");
+    jvec3(j, x, "min", d->pmin);
+    jvec3(j, x, "max", d->pmax);
+    accessor(j, accs, 1, 0, GL_FLOAT, ng, "VEC3");
+    if (L->has_uv)
+        accessor(j, accs, 2, 0, GL_FLOAT, ng, "VEC2");
+    for (int p = 0; p < d->nprims; p++)
+        accessor(j, accs, v_idx, d->prims[p].off, L->ushort ? GL_UNSIGNED_SHORT : GL_UNSIGNED_INT,
+                 3 * (int64_t)d->prims[p].nf, "SCALAR");
     for (int64_t k = 0; k < T && !j->oom; k++) {
-        x = accessor(j, accs, 3, 12u * (uint64_t)m->nv * (uint64_t)k, GL_FLOAT, m->nv, "VEC3");
-        jvec3(j, x, "min", B + 6 * k);
-        jvec3(j, x, "max", B + 6 * k + 3);
+        x = accessor(j, accs, v_morph, 24u * (uint64_t)ng * (uint64_t)k, GL_FLOAT, ng, "VEC3");
+        jvec3(j, x, "min", d->B + 6 * k);
+        jvec3(j, x, "max", d->B + 6 * k + 3);
+        accessor(j, accs, v_morph, 24u * (uint64_t)ng * (uint64_t)k + 12u * (uint64_t)ng, GL_FLOAT,
+                 ng, "VEC3");
     }
-    x = accessor(j, accs, 4, 0, GL_FLOAT, T, "SCALAR");
-    jflt(j, jarr(j, x, "min"), NULL, times[0]);
-    jflt(j, jarr(j, x, "max"), NULL, times[T - 1]);
+    x = accessor(j, accs, v_times, 0, GL_FLOAT, T, "SCALAR");
+    jflt(j, jarr(j, x, "min"), NULL, d->times[0]);
+    jflt(j, jarr(j, x, "max"), NULL, d->times[T - 1]);
     /* The T x T one-hot weights: no buffer view (all zeros) and T sparse
      * entries, the 1 of key k at index k * T + k. */
     x = jobj(j, accs, NULL);
@@ -347,10 +545,18 @@ static cJSON *make_json(const dtx_mesh *m, int64_t T, const layout *L, const flo
     x = jobj(j, x, "sparse");
     jint(j, x, "count", T);
     smp = jobj(j, x, "indices");
-    jint(j, smp, "bufferView", 5);
+    jint(j, smp, "bufferView", v_times + 1);
     jint(j, smp, "componentType", GL_UNSIGNED_INT);
-    jint(j, jobj(j, x, "values"), "bufferView", 6);
+    jint(j, jobj(j, x, "values"), "bufferView", v_times + 2);
     return root;
+}
+
+/* Writes n floats (in bytes[], at least 4 n) through af. */
+static void write_f32s(FILE *fp, unsigned char *bytes, const float *v, size_t n)
+{
+    for (size_t i = 0; i < n; i++)
+        put_f32(bytes + 4 * i, v[i]);
+    fwrite(bytes, 4, n, fp);
 }
 
 dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes,
@@ -359,14 +565,22 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
 {
     const int64_t T = nframes;
     const size_t n3 = 3 * (size_t)(rest ? rest->nv : 0);
+    const dtx_mesh_attrs *at = opts ? opts->attrs : NULL;
     dtx_status st = DTX_OK;
     dtx_atomic_file af;
     jctx j = {0};
     layout L;
+    gverts g;
+    doc_in din;
+    prim_t *prims = NULL;
+    int nprims = 0;
+    int32_t nmat = 0, nw = 0;
+    size_t g3;
     cJSON *doc = NULL;
     char *json = NULL;
-    double *X = NULL, *acc = NULL;
-    float *P = NULL, *N = NULL, *D = NULL, *B = NULL, *times = NULL;
+    double *X = NULL, *acc = NULL, *Nr = NULL, *Nk = NULL;
+    int32_t *wmap = NULL, *wrep = NULL;
+    float *P = NULL, *N = NULL, *UV = NULL, *D = NULL, *B = NULL, *times = NULL, *GD = NULL;
     unsigned char *bytes = NULL, head[28];
     float pmin[3], pmax[3], b2[6];
     uint64_t *H = NULL, h2;
@@ -374,6 +588,8 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     uint64_t file_len;
 
     memset(&af, 0, sizeof af);
+    memset(&g, 0, sizeof g);
+    memset(&L, 0, sizeof L);
 
     /* ================================================ arguments */
     if (!rest || !frame || !opts)
@@ -398,25 +614,88 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
                               "%s: rest vertex %zu (0-based): coordinate %g is not a finite "
                               "float32",
                               path, i / 3, rest->V[i]);
-    make_layout(rest, T, &L);
+    if (at) {
+        st = dtx_mesh_attrs_validate(at, rest->nv, rest->nf, path, err);
+        if (st != DTX_OK)
+            return st;
+        nmat = at->material ? at->nmat : 0;
+        for (int32_t i = 0; at->uv && i < at->nuv; i++)
+            if (!fits_f32(at->uv[2 * (size_t)i]) || !fits_f32(1.0 - at->uv[2 * (size_t)i + 1]))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "%s: uv %d (0-based) is not a finite float32", path, (int)i);
+    }
+    if (opts->materials && opts->nmaterials != nmat)
+        return dtx_seterr(err, DTX_EINVAL, "%s: %d materials given for a mesh with %d", path,
+                          (int)opts->nmaterials, (int)nmat);
+    for (int32_t k = 0; opts->materials && k < nmat; k++) {
+        const dtx_glb_material *mk = opts->materials + k;
+        if (mk->image && !image_mime(mk->image, mk->image_len))
+            return dtx_seterr(err, DTX_EINVAL,
+                              "%s: material %d (%s): the image is neither PNG "
+                              "nor JPEG",
+                              path, (int)k, mk->name ? mk->name : "unnamed");
+        for (int q = 0; mk->has_color && q < 4; q++)
+            if (!(mk->base_color[q] >= 0.0f && mk->base_color[q] <= 1.0f))
+                return dtx_seterr(err, DTX_EINVAL,
+                                  "%s: material %d (%s): base colour component %d is %g, not "
+                                  "in [0, 1]",
+                                  path, (int)k, mk->name ? mk->name : "unnamed", q,
+                                  (double)mk->base_color[q]);
+    }
+
+    /* ================================================ glTF vertices, primitives */
+    st = gverts_make(rest, at, &g, err);
+    if (st != DTX_OK) {
+        dtx_error_prefix(err, "%s", path);
+        return st;
+    }
+    g3 = 3 * (size_t)g.ng;
+    prims = dtx_alloc((size_t)nmat + 1, sizeof *prims, 1);
+    L.img = dtx_alloc((size_t)nmat + 1, sizeof *L.img, 1);
+    if (!prims || !L.img) {
+        st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", path);
+        goto fail;
+    }
+    for (int32_t k = 0; k <= nmat; k++) {
+        int32_t id = k < nmat ? k : -1, cnt = 0;
+        for (int32_t f = 0; f < rest->nf; f++)
+            cnt += (nmat ? at->material[f] : -1) == id;
+        if (cnt > 0)
+            prims[nprims].material = id, prims[nprims++].nf = cnt;
+    }
+    make_layout(g.ng, rest->nf, at && at->uv, opts->materials, nmat, T, &L);
+    for (int p = 0, sum = 0; p < nprims; p++) {
+        prims[p].off = 3u * (uint64_t)sum * (L.ushort ? 2u : 4u);
+        sum += prims[p].nf;
+    }
     if (L.total + 28u > UINT32_MAX) /* before reading any frame; the JSON adds more below */
-        return dtx_seterr(err, DTX_ERANGE,
-                          "%s: the .glb would exceed 4 GiB (%d vertices x %lld frames); the "
-                          "format stops there (export fewer frames)",
-                          path, (int)rest->nv, (long long)T);
+    {
+        st = dtx_seterr(err, DTX_ERANGE,
+                        "%s: the .glb would exceed 4 GiB (%d vertices x %lld frames); the "
+                        "format stops there (export fewer frames)",
+                        path, (int)g.ng, (long long)T);
+        goto fail;
+    }
 
     /* ================================================ buffers */
-    nbytes = (size_t)4 * (n3 > (size_t)T ? n3 : (size_t)T);
+    nbytes = (size_t)4 * (g3 > (size_t)T ? g3 : (size_t)T);
     X = dtx_alloc(n3, sizeof *X, 0);
     acc = dtx_alloc(n3, sizeof *acc, 0);
-    P = dtx_alloc(n3, sizeof *P, 0);
-    N = dtx_alloc(n3, sizeof *N, 0);
+    Nr = dtx_alloc(n3, sizeof *Nr, 0);
+    Nk = dtx_alloc(n3, sizeof *Nk, 0);
+    wmap = dtx_alloc((size_t)rest->nv, sizeof *wmap, 0);
+    wrep = dtx_alloc((size_t)rest->nv, sizeof *wrep, 0);
+    P = dtx_alloc(g3, sizeof *P, 0);
+    N = dtx_alloc(g3, sizeof *N, 0);
+    UV = dtx_alloc(2 * (size_t)g.ng, sizeof *UV, 0);
+    GD = dtx_alloc(g3, sizeof *GD, 0);
     D = dtx_alloc(n3, sizeof *D, 0);
     B = dtx_alloc((size_t)T, 6 * sizeof *B, 0);
     H = dtx_alloc((size_t)T, sizeof *H, 0);
     times = dtx_alloc((size_t)T, sizeof *times, 0);
     bytes = dtx_alloc(nbytes, 1, 0);
-    if (!X || !acc || !P || !N || !D || !B || !H || !times || !bytes) {
+    if (!X || !acc || !Nr || !Nk || !wmap || !wrep || !P || !N || !UV || !GD || !D || !B || !H ||
+        !times || !bytes) {
         st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory (%d vertices, %lld frames)", path,
                         (int)rest->nv, (long long)T);
         goto fail;
@@ -425,13 +704,36 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     /* ================================================ rest mesh, times */
     bounds_init(b2);
     for (size_t i = 0; i < n3; i++) {
-        P[i] = (float)rest->V[i];
-        b2[i % 3] = P[i] < b2[i % 3] ? P[i] : b2[i % 3];
-        b2[3 + i % 3] = P[i] > b2[3 + i % 3] ? P[i] : b2[3 + i % 3];
+        float p = (float)rest->V[i];
+        b2[i % 3] = p < b2[i % 3] ? p : b2[i % 3];
+        b2[3 + i % 3] = p > b2[3 + i % 3] ? p : b2[3 + i % 3];
     }
     memcpy(pmin, b2, sizeof pmin);
     memcpy(pmax, b2 + 3, sizeof pmax);
-    vertex_normals(rest, acc, N);
+    st = dtx_weld_map(rest->V, rest->nv, 0.0, wmap, wrep, &nw, err);
+    if (st != DTX_OK) {
+        dtx_error_prefix(err, "%s", path);
+        goto fail;
+    }
+    smooth_normals(rest->V, rest->nv, rest->F, rest->nf, wmap, nw, acc, Nr);
+    for (int32_t q = 0; q < g.ng; q++) {
+        const double *v = rest->V + 3 * (size_t)g.of[q], *n = Nr + 3 * (size_t)g.of[q];
+        double len = 0.0;
+        if (g.n[q] >= 0) { /* the asset's normal, when it has a direction */
+            const double *an = at->normals + 3 * (size_t)g.n[q];
+            len = sqrt(an[0] * an[0] + an[1] * an[1] + an[2] * an[2]);
+            if (len > 0.0 && isfinite(len))
+                n = an;
+            else
+                len = 0.0;
+        }
+        for (int c = 0; c < 3; c++) {
+            P[3 * (size_t)q + c] = (float)v[c];
+            N[3 * (size_t)q + c] = (float)(len > 0.0 ? n[c] / len : n[c]);
+        }
+        UV[2 * (size_t)q] = g.t[q] >= 0 ? (float)at->uv[2 * (size_t)g.t[q]] : 0.0f;
+        UV[2 * (size_t)q + 1] = g.t[q] >= 0 ? (float)(1.0 - at->uv[2 * (size_t)g.t[q] + 1]) : 0.0f;
+    }
     for (int64_t k = 0; k < T; k++) {
         double t = (double)k * opts->seconds_per_frame;
         if (!fits_f32(t) || (k > 0 && !((float)t > times[k - 1]))) {
@@ -452,7 +754,12 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     }
 
     /* ================================================ JSON, sizes */
-    doc = make_json(rest, T, &L, pmin, pmax, B, times, opts, &j);
+    din.m = rest, din.g = &g, din.T = T, din.L = &L, din.prims = prims, din.nprims = nprims;
+    din.mat = opts->materials;
+    din.mat_names = at ? (const char *const *)at->material_names : NULL;
+    din.nmat = nmat;
+    din.pmin = pmin, din.pmax = pmax, din.B = B, din.times = times;
+    doc = make_json(&din, opts, &j);
     json = (doc && !j.oom) ? cJSON_PrintUnformatted(doc) : NULL;
     if (!json) {
         st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory building the glTF JSON", path);
@@ -485,25 +792,36 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     put_u32(head + 4, GLB_CHUNK_BIN);
     fwrite(head, 1, 8, af.fp);
 
-    /* positions, normals */
-    for (size_t i = 0; i < n3; i++)
-        put_f32(bytes + 4 * i, P[i]);
-    fwrite(bytes, 4, n3, af.fp);
-    for (size_t i = 0; i < n3; i++)
-        put_f32(bytes + 4 * i, N[i]);
-    fwrite(bytes, 4, n3, af.fp);
-    /* indices, then zeros up to the next multiple of 4 */
-    for (size_t i = 0; i < 3 * (size_t)rest->nf; i++) {
-        uint32_t v = (uint32_t)rest->F[i];
-        if (L.ushort) {
-            unsigned char b[2] = {(unsigned char)(v & 0xffu), (unsigned char)(v >> 8)};
-            fwrite(b, 1, 2, af.fp);
-        } else {
-            put_u32(bytes, v);
-            fwrite(bytes, 1, 4, af.fp);
+    /* positions, normals, UVs */
+    write_f32s(af.fp, bytes, P, g3);
+    write_f32s(af.fp, bytes, N, g3);
+    if (L.has_uv)
+        write_f32s(af.fp, bytes, UV, 2 * (size_t)g.ng);
+    /* indices, primitive by primitive, then zeros up to the next multiple of 4 */
+    for (int p = 0; p < nprims; p++)
+        for (int32_t f = 0; f < rest->nf; f++) {
+            if ((nmat ? at->material[f] : -1) != prims[p].material)
+                continue;
+            for (int c = 0; c < 3; c++) {
+                uint32_t v = (uint32_t)g.GF[3 * (size_t)f + c];
+                if (L.ushort) {
+                    put_u16(bytes, v);
+                    fwrite(bytes, 1, 2, af.fp);
+                } else {
+                    put_u32(bytes, v);
+                    fwrite(bytes, 1, 4, af.fp);
+                }
+            }
         }
+    fwrite("\0\0\0", 1, (size_t)(align4(L.idx + L.idx_len) - L.idx - L.idx_len), af.fp);
+    /* images, each padded to 4 */
+    for (int32_t k = 0; k < nmat && opts->materials; k++) {
+        const dtx_glb_material *mk = opts->materials + k;
+        if (!L.has_uv || !mk->image || mk->image_len == 0)
+            continue;
+        fwrite(mk->image, 1, mk->image_len, af.fp);
+        fwrite("\0\0\0", 1, (size_t)(align4(mk->image_len) - mk->image_len), af.fp);
     }
-    fwrite("\0\0\0", 1, (size_t)(L.morph - L.idx - L.idx_len), af.fp);
 
     /* ---- pass 2: the morph deltas, checked against pass 1 */
     for (int64_t k = 0; k < T; k++) {
@@ -516,15 +834,20 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
                            path, (long long)k);
             goto fail;
         }
-        for (size_t i = 0; i < n3; i++)
-            put_f32(bytes + 4 * i, D[i]);
-        fwrite(bytes, 4, n3, af.fp);
+        for (int32_t q = 0; q < g.ng; q++)
+            memcpy(GD + 3 * (size_t)q, D + 3 * (size_t)g.of[q], 3 * sizeof *GD);
+        write_f32s(af.fp, bytes, GD, g3);
+        smooth_normals(X, rest->nv, rest->F, rest->nf, wmap, nw, acc, Nk);
+        for (int32_t q = 0; q < g.ng; q++)
+            for (int c = 0; c < 3; c++) {
+                size_t i = 3 * (size_t)g.of[q] + (size_t)c;
+                GD[3 * (size_t)q + c] = (float)(Nk[i] - Nr[i]);
+            }
+        write_f32s(af.fp, bytes, GD, g3);
     }
 
     /* ---- times, then the sparse weights: indices k * T + k, values 1 */
-    for (int64_t k = 0; k < T; k++)
-        put_f32(bytes + 4 * k, times[k]);
-    fwrite(bytes, 4, (size_t)T, af.fp);
+    write_f32s(af.fp, bytes, times, (size_t)T);
     for (int64_t k = 0; k < T; k++)
         put_u32(bytes + 4 * k, (uint32_t)(k * T + k));
     fwrite(bytes, 4, (size_t)T, af.fp);
@@ -543,9 +866,18 @@ fail:
     free(H);
     free(B);
     free(D);
+    free(GD);
+    free(UV);
     free(N);
     free(P);
+    free(wrep);
+    free(wmap);
+    free(Nk);
+    free(Nr);
     free(acc);
     free(X);
+    free(L.img);
+    free(prims);
+    gverts_free(&g);
     return st;
 }

@@ -6,7 +6,13 @@
 # 5,000 and 10,000 frames of a tetrahedron (the animation's weights are a
 # sparse accessor, so the size grows linearly with the frames: the bytes
 # per frame between 2,500 and 5,000 frames equal those between 5,000 and
-# 10,000).  Any error or warning fails; infos and hints are printed.  A
+# 10,000).  The lion split along a UV seam with two materials (dtx
+# generate uvsplit, a checker PNG on one of them through map_Kd) and its
+# result: TEXCOORD_0, the asset's normals, morph normals, two primitives,
+# two materials and an embedded image; the same without its .mtl (a
+# warning, materials without colour); and an OBJ whose UVs are per corner
+# (vt indices unlike v indices), whose glb splits vertices and says so in
+# extras.  Any error or warning fails; infos and hints are printed.  A
 # copy with a broken accessor must be refused, so the check itself can
 # fail.  Exits 77 (ctest: skipped) without node or the validator, except
 # under CI=true, where that is a failure: scripts/setup.sh installs both
@@ -77,6 +83,75 @@ R=/results/lion/cat-poses
 "$DTX" export out.h5 $R --glb lion.glb && valid lion.glb
 "$DTX" export out.h5 $R --glb lion-step.glb --stride 2 --step --fps 30 && valid lion-step.glb
 "$DTX" export cl.h5 /sequences/cat-poses --glb cat.glb && valid cat.glb
+
+# ---- the asset: the uvsplit lion, two materials, a texture on one
+mkdir -p asset
+"$DTX" generate uvsplit "$D/target/lion-reference.obj" asset/lion-uv.obj 2>/dev/null
+python3 "$DTX_SRC/scripts/uv-checker.py" asset/checker.png 64 8
+sed -i '/^newmtl dtx_lower/a map_Kd checker.png' asset/lion-uv.mtl
+"$DTX" import mesh asset/lion-uv.obj -o cl.h5 --name lion-uv 2>/dev/null
+sed 's#"/meshes/lion"#"/meshes/lion-uv"#; s#"out.h5"#"out-uv.h5"#' job.json > job-uv.json
+"$DTX" run --quiet job-uv.json || { echo "FAILED: the uvsplit job did not run"; exit 1; }
+"$DTX" export out-uv.h5 $R --glb lion-uv.glb 2> export-uv.log && valid lion-uv.glb
+# What the validator saw is what was asked for (the JSON chunk, read by node).
+if node -e '
+    const b = require("fs").readFileSync(process.argv[1]);
+    const j = JSON.parse(b.slice(20, 20 + b.readUInt32LE(12)).toString());
+    const p = j.meshes[0].primitives, m = j.materials || [];
+    const c = (m[1] || {}).pbrMetallicRoughness || {};
+    const kd = [0.2, 0.5, 0.8, 1], f = c.baseColorFactor || [];
+    const ok = p.length === 2 && p.every((q) => "TEXCOORD_0" in q.attributes &&
+        "NORMAL" in q.attributes && q.targets.every((t) => "NORMAL" in t)) &&
+        m.length === 2 && m[0].name === "dtx_lower" && m[1].name === "dtx_upper" &&
+        m[0].pbrMetallicRoughness.baseColorTexture !== undefined &&
+        (j.images || []).length === 1 && j.images[0].mimeType === "image/png" &&
+        f.length === 4 && f.every((x, i) => Math.abs(x - kd[i]) < 1e-6);
+    console.log("  " + p.length + " primitives, materials " + m.map((x) => x.name).join(", ") +
+                ", " + (j.images || []).length + " image(s)");
+    process.exit(ok ? 0 : 1);' lion-uv.glb; then
+    ok "lion-uv.glb: two primitives with TEXCOORD_0, NORMAL and morph normals, the .mtl's materials, the PNG embedded"
+else
+    bad "lion-uv.glb: primitives, materials or image not as asked"; cat export-uv.log
+fi
+
+# Without its .mtl the export still works, with a warning naming what is
+# missing, and materials without colour.
+mv asset/lion-uv.mtl asset/lion-uv.mtl.away
+if "$DTX" export out-uv.h5 $R --glb lion-nomtl.glb 2> nomtl.log &&
+    grep -q "warning: lion-nomtl.glb: material library lion-uv.mtl not found beside .*asset/lion-uv.obj" nomtl.log &&
+    ! grep -q baseColor <(head -c 400000 lion-nomtl.glb | tr -d '\0'); then
+    ok "no .mtl beside the asset: a warning naming it, materials without colour"
+    valid lion-nomtl.glb
+else
+    bad "no .mtl beside the asset: $(cat nomtl.log)"
+fi
+mv asset/lion-uv.mtl.away asset/lion-uv.mtl
+
+# ---- per-corner UVs: a quad of two triangles whose shared edge has
+# different UVs on its two sides, so two vertices get copies
+cat > corner.obj <<'EOF2'
+v 0 0 0
+v 1 0 0
+v 1 1 0
+v 0 1 0
+vt 0 0
+vt 1 0
+vt 1 1
+vt 0 1
+vt 0.5 0.5
+vt 0.25 0.75
+f 1/1 2/2 3/3
+f 1/5 3/6 4/4
+EOF2
+"$DTX" import mesh corner.obj -o corner.h5 --name q 2>/dev/null
+awk '/^v / { $4 = 0.5 } { print }' corner.obj > corner-up.obj
+"$DTX" import sequence corner.obj corner-up.obj -o corner.h5 --name up --mesh /meshes/q 2>/dev/null
+"$DTX" export corner.h5 /sequences/up --glb corner.glb && valid corner.glb
+if grep -q '"dtx_vertex_copies":{"vertices":4,"copy_of":\[0,2\]}' <(head -c 4096 corner.glb | tr -d '\0'); then
+    ok "corner.glb: vertices 0 and 2 are split, and extras say which glTF vertex copies which"
+else
+    bad "corner.glb: no dtx_vertex_copies [0,2] in its JSON"
+fi
 
 # ---- a grid of 261 x 261 vertices: more than 65535, so 32-bit indices
 awk -v n=261 'BEGIN {

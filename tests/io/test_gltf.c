@@ -5,9 +5,14 @@
  * targets, accessors inside their views and aligned, POSITION and morph
  * accessor min/max equal to the data, unit normals, indices equal to the
  * faces (UNSIGNED_SHORT up to 65535 vertices, UNSIGNED_INT above), deltas
- * equal to the float-rounded frame - rest, strictly increasing times and
- * one-hot weights.  Bad arguments, bad frames, failing callbacks, a file
- * over 4 GiB and unwritable paths fail cleanly with no file left. */
+ * equal to the float-rounded frame - rest, morph normals that turn the
+ * rest normals into the frame's own, strictly increasing times and
+ * one-hot weights.  With the asset's attributes: TEXCOORD_0 = (u, 1 - v),
+ * the asset's normals made unit, one primitive per material with that
+ * material's faces in order, materials with their names, base colour and
+ * embedded PNG; per-corner UVs split vertices into copies that extras
+ * name, each corner keeping its position, UV and morph delta.  Bad arguments, bad frames, failing
+ * callbacks, a file over 4 GiB and unwritable paths fail cleanly with no file left. */
 #include "check.h"
 #include "gltf.h"
 
@@ -90,6 +95,28 @@ static void grid(dtx_mesh *m, int32_t nx, int32_t ny)
             f[0] = a, f[1] = b, f[2] = d, f[3] = a, f[4] = d, f[5] = c;
             t += 2;
         }
+}
+
+/* Area-weighted unit normals of positions X on m's faces (N: nv x 3). */
+static void normals_of(const dtx_mesh *m, const double *X, double *N)
+{
+    memset(N, 0, 3 * (size_t)m->nv * sizeof *N);
+    for (int32_t f = 0; f < m->nf; f++) {
+        const int32_t *t = m->F + 3 * f;
+        const double *a = X + 3 * t[0], *b = X + 3 * t[1], *c = X + 3 * t[2];
+        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]};
+        double e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]};
+        double n[3] = {e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2],
+                       e1[0] * e2[1] - e1[1] * e2[0]};
+        for (int k = 0; k < 3; k++)
+            for (int q = 0; q < 3; q++)
+                N[3 * t[k] + q] += n[q];
+    }
+    for (int32_t i = 0; i < m->nv; i++) {
+        double *n = N + 3 * i, l = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        for (int q = 0; q < 3; q++)
+            n[q] /= l;
+    }
 }
 
 /* ------------------------------------------------------------ reading */
@@ -204,7 +231,7 @@ static const unsigned char *elem(const glb *g, const cJSON *a, int64_t i, int c,
     const cJSON *v = nth(at(g->json, "bufferViews"), (int64_t)num(a, "bufferView", -1));
     double stride = num(v, "byteStride", 0);
     const char *type = cJSON_GetStringValue(at(a, "type"));
-    int ncomp = type && strcmp(type, "VEC3") == 0 ? 3 : 1;
+    int ncomp = type && strcmp(type, "VEC3") == 0 ? 3 : type && strcmp(type, "VEC2") == 0 ? 2 : 1;
     size_t off = (size_t)num(v, "byteOffset", 0) + (size_t)num(a, "byteOffset", 0);
     size_t st = stride > 0 ? (size_t)stride : (size_t)(ncomp * csize);
     return g->bin + off + (size_t)i * st + (size_t)c * (size_t)csize;
@@ -228,8 +255,8 @@ static float sparse_f32(const glb *g, const cJSON *a, int64_t i)
                        (uint32_t)ip[4 * e + 2] << 16 | (uint32_t)ip[4 * e + 3] << 24;
         if (e > 0) {
             const unsigned char *q = ip + 4 * (e - 1);
-            uint32_t prev = (uint32_t)q[0] | (uint32_t)q[1] << 8 | (uint32_t)q[2] << 16 |
-                            (uint32_t)q[3] << 24;
+            uint32_t prev =
+                (uint32_t)q[0] | (uint32_t)q[1] << 8 | (uint32_t)q[2] << 16 | (uint32_t)q[3] << 24;
             if (!(idx > prev))
                 return NAN;
         }
@@ -255,10 +282,11 @@ static void check_views_accessors(const glb *g)
         CHECK_EQ_INT((int64_t)off % 4, 0);
         CHECK_INT(len, >, 0);
         CHECK_DBL(off + len, <=, blen);
-        /* Vertex attribute views have a stride of one VEC3; index and
-         * animation views have none (the validator forbids it for indices). */
+        /* Vertex attribute views have a stride of one VEC3 (a VEC2 for
+         * UVs); index, image and animation views have none (the validator
+         * forbids it for indices). */
         if (target == 34962)
-            CHECK_EQ_INT(stride, 12);
+            CHECK(stride == 12 || stride == 8);
         else
             CHECK_EQ_INT(stride, 0);
     }
@@ -268,7 +296,9 @@ static void check_views_accessors(const glb *g)
         int ctype = (int)num(a, "componentType", 0);
         int csize = ctype == 5123 ? 2 : 4;
         const char *type = cJSON_GetStringValue(at(a, "type"));
-        int ncomp = type && strcmp(type, "VEC3") == 0 ? 3 : 1;
+        int ncomp = type && strcmp(type, "VEC3") == 0   ? 3
+                    : type && strcmp(type, "VEC2") == 0 ? 2
+                                                        : 1;
         double count = num(a, "count", -1), aoff = num(a, "byteOffset", 0);
         double stride = num(view, "byteStride", 0);
         double esize = (double)(ncomp * csize), st = stride > 0 ? stride : esize;
@@ -328,7 +358,7 @@ static void check_file(const char *path, const dtx_mesh *m, int64_t T, double sp
     }
     check_views_accessors(&g);
     accs = at(g.json, "accessors");
-    CHECK_EQ_INT(cJSON_GetArraySize(accs), 3 + T + 2);
+    CHECK_EQ_INT(cJSON_GetArraySize(accs), 3 + 2 * T + 2);
     CHECK_EQ_INT(cJSON_GetArraySize(at(g.json, "bufferViews")), 7);
     CHECK(strcmp(cJSON_GetStringValue(at(at(g.json, "asset"), "version")), "2.0") == 0);
     CHECK_EQ_INT(num(g.json, "scene", -1), 0);
@@ -378,17 +408,38 @@ static void check_file(const char *path, const dtx_mesh *m, int64_t T, double sp
         CHECK_DBL(worst, <, 1e-6);
     }
 
-    /* morph deltas = float(frame - rest) */
+    /* morph deltas = float(frame - rest); rest normal + normal delta = the
+     * frame's own area-weighted normal (these meshes have no two vertices
+     * at one position) */
     X = malloc(3 * (size_t)m->nv * sizeof *X);
-    for (int64_t k = 0; k < T; k++) {
-        const cJSON *da = nth(accs, (int64_t)num(nth(targets, k), "POSITION", -1));
-        int bad = 0;
-        CHECK_EQ_INT(num(nth(targets, k), "POSITION", -1), 3 + k);
-        frame_k(m, k, X);
-        for (int32_t i = 0; i < m->nv; i++)
-            for (int c = 0; c < 3; c++)
-                bad += lef32(elem(&g, da, i, c, 4)) != (float)(X[3 * i + c] - m->V[3 * i + c]);
-        CHECK_EQ_INT(bad, 0);
+    {
+        double *Nr = malloc(3 * (size_t)m->nv * sizeof *Nr),
+               *Nk = malloc(3 * (size_t)m->nv * sizeof *Nk);
+        const cJSON *na = nth(accs, 1);
+        normals_of(m, m->V, Nr);
+        for (int64_t k = 0; k < T; k++) {
+            const cJSON *da = nth(accs, (int64_t)num(nth(targets, k), "POSITION", -1)),
+                        *dn = nth(accs, (int64_t)num(nth(targets, k), "NORMAL", -1));
+            int bad = 0;
+            double worst = 0.0, worst_base = 0.0;
+            CHECK_EQ_INT(num(nth(targets, k), "POSITION", -1), 3 + 2 * k);
+            CHECK_EQ_INT(num(nth(targets, k), "NORMAL", -1), 3 + 2 * k + 1);
+            frame_k(m, k, X);
+            normals_of(m, X, Nk);
+            for (int32_t i = 0; i < m->nv; i++)
+                for (int c = 0; c < 3; c++) {
+                    double base = lef32(elem(&g, na, i, c, 4));
+                    double shown = base + lef32(elem(&g, dn, i, c, 4));
+                    bad += lef32(elem(&g, da, i, c, 4)) != (float)(X[3 * i + c] - m->V[3 * i + c]);
+                    worst = fmax(worst, fabs(shown - Nk[3 * i + c]));
+                    worst_base = fmax(worst_base, fabs(base - Nr[3 * i + c]));
+                }
+            CHECK_EQ_INT(bad, 0);
+            CHECK_DBL(worst, <, 1e-6);
+            CHECK_DBL(worst_base, <, 1e-6);
+        }
+        free(Nr);
+        free(Nk);
     }
     free(X);
 
@@ -403,7 +454,7 @@ static void check_file(const char *path, const dtx_mesh *m, int64_t T, double sp
         const cJSON *ta = nth(accs, (int64_t)num(smp, "input", -1)),
                     *wa = nth(accs, (int64_t)num(smp, "output", -1));
         int bad_t = 0, bad_w = 0;
-        CHECK_EQ_INT(num(smp, "input", -1), 3 + T);
+        CHECK_EQ_INT(num(smp, "input", -1), 3 + 2 * T);
         CHECK_EQ_INT(num(ta, "count", -1), T);
         CHECK_EQ_INT(num(wa, "count", -1), T * T);
         CHECK(cJSON_IsArray(at(ta, "min")) && cJSON_IsArray(at(ta, "max")));
@@ -475,6 +526,203 @@ static void test_index_types(void)
         check_file(SCRATCH "/grid.glb", &m, 2, 0.1, 0, 1, 1);
         dtx_mesh_free(&m);
     }
+}
+
+/* The asset's attributes.  Case 1, one UV and normal per vertex (uv_faces
+ * and normal_faces equal the faces, as a split OBJ has): a 6 x 5 grid, UVs
+ * (i/5, j/4), normals (0, 0.5, 2) unnormalised, faces alternating between
+ * materials 1 and 0 by cell row, a PNG on material 0 and a base colour on
+ * material 1.  Case 2, per-corner UVs: the octahedron with UVs indexed
+ * per corner, so vertices are split into copies. */
+static void expect_fail(const char *what, dtx_status got, dtx_status want, const dtx_error *err,
+                        const char *needle, const char *path);
+
+static const unsigned char tiny_png[] = {
+    0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n', 0, 0, 0, 13, 'I', 'H', 'D', 'R', 0, 0, 0,
+    1,    0,   0,   0,   1,    8,    0,    0,    0, 0, 0, 0,  0,   0,   0,   0,   0, 0};
+
+static void test_attrs(void)
+{
+    dtx_mesh m;
+    dtx_mesh_attrs a;
+    dtx_glb_material mat[2];
+    frames f = {0};
+    dtx_error err;
+    dtx_glb_opts o = opts(0.1, 0);
+    glb g;
+    char *names[2] = {"stone", "moss"};
+    int32_t count[2] = {0, 0};
+    grid(&m, 6, 5);
+    f.m = &m, f.nan_frame = f.fail_frame = f.change_after = -1;
+    memset(&a, 0, sizeof a);
+    a.nuv = a.nn = m.nv;
+    a.uv = malloc(2 * (size_t)m.nv * sizeof *a.uv);
+    a.normals = malloc(3 * (size_t)m.nv * sizeof *a.normals);
+    a.uv_faces = a.normal_faces = m.F;
+    a.nmat = 2;
+    a.material = malloc((size_t)m.nf * sizeof *a.material);
+    a.material_names = names;
+    for (int32_t i = 0; i < m.nv; i++) {
+        a.uv[2 * i] = (i % 6) / 5.0, a.uv[2 * i + 1] = (i / 6) / 4.0;
+        a.normals[3 * i] = 0.0, a.normals[3 * i + 1] = 0.5, a.normals[3 * i + 2] = 2.0;
+    }
+    for (int32_t t = 0; t < m.nf; t++) {
+        a.material[t] = (t / 10) % 2 == 0; /* 10 triangles a cell row */
+        count[a.material[t]]++;
+    }
+    memset(mat, 0, sizeof mat);
+    mat[0].image = tiny_png, mat[0].image_len = sizeof tiny_png, mat[0].image_name = "t.png";
+    mat[1].has_color = 1;
+    mat[1].base_color[0] = 0.25f, mat[1].base_color[1] = 0.5f, mat[1].base_color[2] = 0.75f,
+    mat[1].base_color[3] = 1.0f;
+    o.attrs = &a, o.materials = mat, o.nmaterials = 2;
+    CHECK_OK(dtx_glb_write(SCRATCH "/attrs.glb", &m, 3, frame_cb, &f, &o, &err), &err);
+    if (glb_load(SCRATCH "/attrs.glb", &g) == 0) {
+        const cJSON *accs = at(g.json, "accessors"), *mesh = nth(at(g.json, "meshes"), 0);
+        const cJSON *prims = at(mesh, "primitives"), *mats = at(g.json, "materials");
+        const cJSON *p0 = nth(prims, 0), *uva, *na, *img;
+        int bad_uv = 0, bad_n = 0;
+        check_views_accessors(&g);
+        CHECK_EQ_INT(cJSON_GetArraySize(prims), 2);
+        CHECK(at(mesh, "extras") && !at(at(mesh, "extras"), "dtx_vertex_copies"));
+        uva = nth(accs, (int64_t)num(at(p0, "attributes"), "TEXCOORD_0", -1));
+        na = nth(accs, (int64_t)num(at(p0, "attributes"), "NORMAL", -1));
+        CHECK_EQ_INT(num(uva, "count", -1), m.nv);
+        CHECK(strcmp(cJSON_GetStringValue(at(uva, "type")), "VEC2") == 0);
+        for (int32_t i = 0; i < m.nv; i++) {
+            /* UVs as stored with v flipped; normals the asset's, unit */
+            bad_uv += lef32(elem(&g, uva, i, 0, 4)) != (float)a.uv[2 * i];
+            bad_uv += lef32(elem(&g, uva, i, 1, 4)) != (float)(1.0 - a.uv[2 * i + 1]);
+            bad_n += fabs(lef32(elem(&g, na, i, 1, 4)) - 0.5 / sqrt(4.25)) > 1e-7;
+            bad_n += fabs(lef32(elem(&g, na, i, 2, 4)) - 2.0 / sqrt(4.25)) > 1e-7;
+        }
+        CHECK_EQ_INT(bad_uv, 0);
+        CHECK_EQ_INT(bad_n, 0);
+        /* one primitive per material, material 0 first, with its faces in order */
+        for (int p = 0; p < 2; p++) {
+            const cJSON *pr = nth(prims, p), *ia = nth(accs, (int64_t)num(pr, "indices", -1));
+            int bad = 0;
+            int32_t q = 0;
+            CHECK_EQ_INT(num(pr, "material", -1), p);
+            CHECK_EQ_INT(num(ia, "count", -1), 3 * (int64_t)count[p]);
+            CHECK_EQ_INT(cJSON_GetArraySize(at(pr, "targets")), 3);
+            for (int32_t t = 0; t < m.nf; t++) {
+                if (a.material[t] != p)
+                    continue;
+                for (int c = 0; c < 3; c++) {
+                    const unsigned char *b = elem(&g, ia, 3 * q + c, 0, 2);
+                    bad += (int32_t)(b[0] | b[1] << 8) != m.F[3 * t + c];
+                }
+                q++;
+            }
+            CHECK_EQ_INT(bad, 0);
+        }
+        CHECK(strcmp(cJSON_GetStringValue(at(nth(mats, 0), "name")), "stone") == 0);
+        CHECK(strcmp(cJSON_GetStringValue(at(nth(mats, 1), "name")), "moss") == 0);
+        CHECK_EQ_INT(
+            num(at(at(nth(mats, 0), "pbrMetallicRoughness"), "baseColorTexture"), "index", -1), 0);
+        CHECK_DBL(num(at(nth(mats, 1), "pbrMetallicRoughness"), "metallicFactor", -1), ==, 0.0);
+        CHECK_DBL(
+            nth(at(at(nth(mats, 1), "pbrMetallicRoughness"), "baseColorFactor"), 2)->valuedouble,
+            ==, 0.75);
+        img = nth(at(g.json, "images"), 0);
+        CHECK(strcmp(cJSON_GetStringValue(at(img, "mimeType")), "image/png") == 0);
+        {
+            const cJSON *iv = nth(at(g.json, "bufferViews"), (int64_t)num(img, "bufferView", -1));
+            CHECK_EQ_INT(num(iv, "byteLength", -1), sizeof tiny_png);
+            CHECK(iv &&
+                  memcmp(g.bin + (size_t)num(iv, "byteOffset", 0), tiny_png, sizeof tiny_png) == 0);
+        }
+    }
+    glb_free(&g);
+
+    /* errors: material count, an image that is not PNG or JPEG, a uv index
+     * out of range; no file left */
+    {
+        const char *path = SCRATCH "/attrs-bad.glb";
+        static const unsigned char gif[] = {'G', 'I', 'F', '8', '9', 'a'};
+        dtx_status st;
+        o.nmaterials = 1;
+        st = dtx_glb_write(path, &m, 2, frame_cb, &f, &o, &err);
+        expect_fail("material count", st, DTX_EINVAL, &err, "1 materials given", path);
+        o.nmaterials = 2;
+        mat[0].image = gif, mat[0].image_len = sizeof gif;
+        st = dtx_glb_write(path, &m, 2, frame_cb, &f, &o, &err);
+        expect_fail("gif", st, DTX_EINVAL, &err, "neither PNG nor JPEG", path);
+        mat[0].image = NULL;
+        a.nuv = 3; /* uv_faces now point past the UVs */
+        st = dtx_glb_write(path, &m, 2, frame_cb, &f, &o, &err);
+        CHECK(st != DTX_OK);
+        CHECK_EQ_INT(access(path, F_OK), -1);
+        a.nuv = m.nv;
+    }
+    free(a.uv);
+    free(a.normals);
+    free(a.material);
+    dtx_mesh_free(&m);
+
+    /* Case 2: per-corner UVs on the octahedron: corner c of face t gets
+     * UV index (t % 2) * 6 + F[c] (two UV sets), so every vertex used by
+     * faces of both parities is split once. */
+    {
+        int32_t uvf[24];
+        double uv[24];
+        int distinct = 0, bad_pos = 0, bad_uv = 0, bad_d = 0;
+        octahedron(&m);
+        f.m = &m;
+        memset(&a, 0, sizeof a);
+        for (int i = 0; i < 12; i++)
+            uv[2 * i] = 0.05 * i, uv[2 * i + 1] = 0.5 + 0.03 * i;
+        for (int c = 0; c < 24; c++)
+            uvf[c] = (c / 3) % 2 * 6 + m.F[c];
+        for (int v = 0; v < 6; v++) { /* distinct (v, uv) pairs */
+            int seen[2] = {0, 0};
+            for (int c = 0; c < 24; c++)
+                if (m.F[c] == v)
+                    seen[(c / 3) % 2] = 1;
+            distinct += seen[0] + seen[1];
+        }
+        a.nuv = 12, a.uv = uv, a.uv_faces = uvf;
+        o = opts(0.1, 0);
+        o.attrs = &a;
+        CHECK_OK(dtx_glb_write(SCRATCH "/corner.glb", &m, 2, frame_cb, &f, &o, &err), &err);
+        if (glb_load(SCRATCH "/corner.glb", &g) == 0) {
+            const cJSON *accs = at(g.json, "accessors"), *mesh = nth(at(g.json, "meshes"), 0);
+            const cJSON *pr = nth(at(mesh, "primitives"), 0);
+            const cJSON *pa = nth(accs, 0), *uva = nth(accs, 2),
+                        *ia = nth(accs, (int64_t)num(pr, "indices", -1)),
+                        *da = nth(accs, (int64_t)num(nth(at(pr, "targets"), 1), "POSITION", -1));
+            const cJSON *cp = at(at(mesh, "extras"), "dtx_vertex_copies"), *of = at(cp, "copy_of");
+            int ng = (int)num(pa, "count", -1);
+            double X[18];
+            CHECK_EQ_INT(ng, distinct);
+            CHECK_EQ_INT(num(cp, "vertices", -1), 6);
+            CHECK_EQ_INT(cJSON_GetArraySize(of), ng - 6);
+            frame_k(&m, 1, X);
+            for (int q = 0; q < ng; q++) { /* glTF vertex q is dtx vertex src */
+                int src = q < 6 ? q : (int)nth(of, q - 6)->valuedouble;
+                for (int c = 0; c < 3; c++) {
+                    bad_pos += lef32(elem(&g, pa, q, c, 4)) != (float)m.V[3 * src + c];
+                    bad_d +=
+                        lef32(elem(&g, da, q, c, 4)) != (float)(X[3 * src + c] - m.V[3 * src + c]);
+                }
+            }
+            for (int c = 0; c < 24; c++) { /* each corner: its position and its UV */
+                const unsigned char *b = elem(&g, ia, c, 0, 2);
+                int q = b[0] | b[1] << 8;
+                int src = q < 6 ? q : (int)nth(of, q - 6)->valuedouble;
+                bad_uv += src != m.F[c];
+                bad_uv += lef32(elem(&g, uva, q, 0, 4)) != (float)uv[2 * uvf[c]];
+                bad_uv += lef32(elem(&g, uva, q, 1, 4)) != (float)(1.0 - uv[2 * uvf[c] + 1]);
+            }
+            CHECK_EQ_INT(bad_pos, 0);
+            CHECK_EQ_INT(bad_uv, 0);
+            CHECK_EQ_INT(bad_d, 0);
+        }
+        glb_free(&g);
+        dtx_mesh_free(&m);
+    }
+    CHECK_EQ_INT(temp_files(), 0);
 }
 
 /* A write that must fail: status, message, no file, no temporary file. */
@@ -577,5 +825,6 @@ int main(void)
     test_small();
     test_index_types();
     test_errors();
+    test_attrs();
     return check_report();
 }
