@@ -10,6 +10,7 @@
  */
 #define _GNU_SOURCE 1 /* fallocate */
 #include "h5layout.h"
+#include "h5guard.h"
 #include "h5mesh_attrs.h"
 #include "file_util.h"
 #include "write_reason.h"
@@ -409,6 +410,12 @@ static hid_t make_fapl(MPI_Comm comm)
     if (fapl < 0)
         return fapl;
     if (comm != MPI_COMM_NULL && H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL) < 0) {
+        CLOSE_ID(H5Pclose, fapl);
+        return H5I_INVALID_HID;
+    }
+    /* Serial files: sec2's I/O, with corrupt global heaps refused before
+     * HDF5 loops over them (h5guard.h). */
+    if (comm == MPI_COMM_NULL && dtx_h5_guard_set_fapl(fapl) < 0) {
         CLOSE_ID(H5Pclose, fapl);
         return H5I_INVALID_HID;
     }
