@@ -224,8 +224,15 @@ static const char *obj_path(hid_t loc, const char *obj, char *buf, size_t n)
         append(buf, n, &used, obj);
         return buf;
     }
-    if (H5Iget_name(loc, base, sizeof base) <= 0)
-        snprintf(base, sizeof base, "/");
+    {
+        /* H5Iget_name clears HDF5's error stack, which the caller (an
+         * argument of h5err) has yet to read: keep it aside meanwhile. */
+        hid_t es = H5Eget_current_stack();
+        if (H5Iget_name(loc, base, sizeof base) <= 0)
+            snprintf(base, sizeof base, "/");
+        if (es >= 0)
+            (void)H5Eset_current_stack(es);
+    }
     append(buf, n, &used, base);
     if (obj && strcmp(obj, ".") != 0 && obj[0] != '\0') {
         if (strcmp(base, "/") != 0)
