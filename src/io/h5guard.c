@@ -35,6 +35,13 @@ typedef struct {
     dev_t dev;
     ino_t ino;
     unsigned sizeof_size; /* from the superblock once read; 8 until then */
+    /* HDF5 reads a collection larger than its first guess in two parts
+     * (H5C_load_entry reads only the rest the second time): the first part
+     * waits here until the rest arrives, so the whole is checked. */
+    unsigned char *head;
+    size_t head_n;
+    haddr_t head_addr;
+    uint64_t head_total;
 } guard_file;
 
 static hid_t guard_id = H5I_INVALID_HID;
@@ -177,6 +184,7 @@ static herr_t guard_close(H5FD_t *file)
     guard_file *f = (guard_file *)file;
     int r = close(f->fd);
     int e = errno;
+    free(f->head);
     free(f);
     if (r != 0) {
         push_errno(H5E_CANTCLOSEFILE, "cannot close the file", e);
@@ -235,6 +243,59 @@ static int bad_region(haddr_t addr, size_t size)
     return addr == HADDR_UNDEF || addr > GUARD_MAXADDR || (haddr_t)size > GUARD_MAXADDR - addr;
 }
 
+static herr_t heap_error(haddr_t addr, const char *why)
+{
+    char msg[300];
+    snprintf(msg, sizeof msg, "corrupt global heap collection at address %llu: %s",
+             (unsigned long long)addr, why);
+    push_error(H5E_HEAP, H5E_BADVALUE, msg);
+    return -1;
+}
+
+/* Checks a raw-data read that is (the first or the second part of) a
+ * global heap collection. */
+static herr_t check_draw(guard_file *f, haddr_t addr, size_t size, const unsigned char *buf)
+{
+    char why[200];
+    int r;
+    if (f->head && addr == f->head_addr + f->head_n && size == f->head_total - f->head_n) {
+        /* The rest of the collection whose start waits in f->head. */
+        unsigned char *all = malloc(f->head_total);
+        haddr_t start = f->head_addr;
+        if (!all) {
+            push_error(H5E_RESOURCE, H5E_NOSPACE, "out of memory");
+            return -1;
+        }
+        memcpy(all, f->head, f->head_n);
+        memcpy(all + f->head_n, buf, size);
+        r = dtx_h5_guard_check_gheap(all, f->head_total, f->sizeof_size, why, sizeof why);
+        free(all);
+        free(f->head);
+        f->head = NULL;
+        return r < 0 ? heap_error(start, why) : 0;
+    }
+    r = dtx_h5_guard_check_gheap(buf, size, f->sizeof_size, why, sizeof why);
+    if (r < 0)
+        return heap_error(addr, why);
+    if (r == 0 && size >= 8u + f->sizeof_size && memcmp(buf, "GCOL\x01", 5) == 0) {
+        /* The start of a collection larger than this read: keep it. */
+        uint64_t total = decode_len(buf + 8, f->sizeof_size);
+        if (total > size && total <= f->eoa - addr) {
+            free(f->head);
+            f->head = malloc(size);
+            if (!f->head) {
+                push_error(H5E_RESOURCE, H5E_NOSPACE, "out of memory");
+                return -1;
+            }
+            memcpy(f->head, buf, size);
+            f->head_n = size;
+            f->head_addr = addr;
+            f->head_total = total;
+        }
+    }
+    return 0;
+}
+
 static herr_t guard_read(H5FD_t *file, H5FD_mem_t type, hid_t dxpl, haddr_t addr, size_t size,
                          void *buffer)
 {
@@ -242,7 +303,6 @@ static herr_t guard_read(H5FD_t *file, H5FD_mem_t type, hid_t dxpl, haddr_t addr
     unsigned char *p = buffer;
     size_t left = size;
     haddr_t at = addr;
-    char why[200];
     (void)dxpl;
     if (bad_region(addr, size) || addr + size > f->eoa) {
         push_error(H5E_ARGS, H5E_OVERFLOW, "read beyond the end of allocated space");
@@ -269,13 +329,8 @@ static herr_t guard_read(H5FD_t *file, H5FD_mem_t type, hid_t dxpl, haddr_t addr
         unsigned s = superblock_sizeof_size(buffer, size);
         if (s == 2 || s == 4 || s == 8 || s == 16)
             f->sizeof_size = s;
-    } else if (type == H5FD_MEM_DRAW &&
-               dtx_h5_guard_check_gheap(buffer, size, f->sizeof_size, why, sizeof why) < 0) {
-        char msg[300];
-        snprintf(msg, sizeof msg, "corrupt global heap collection at address %llu: %s",
-                 (unsigned long long)addr, why);
-        push_error(H5E_HEAP, H5E_BADVALUE, msg);
-        return -1;
+    } else if (type == H5FD_MEM_DRAW) {
+        return check_draw(f, addr, size, buffer);
     }
     return 0;
 }

@@ -17,7 +17,8 @@
  * HDF5 passes global heap reads to the driver as raw data (H5FD_MEM_DRAW),
  * so a collection is recognised by its content: a read that starts with the
  * signature "GCOL", version 1, and holds the whole collection its header
- * declares.  A collection written by HDF5 always passes (its objects tile
+ * declares, or whose rest HDF5 reads next (a collection larger than HDF5's
+ * first 4 KiB guess is read in two parts; the first waits in the driver).  A collection written by HDF5 always passes (its objects tile
  * it exactly); a raw dataset read that happens to start with those 8 bytes
  * is checked the same way and fails only when its bytes would also hang or
  * overrun HDF5 as a collection.

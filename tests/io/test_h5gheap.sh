@@ -37,6 +37,14 @@ check "fuzz input: inspect fails with a message (exit $rc)" \
     bash -c '[ "$1" -ne 0 ] && [ "$1" -ne 124 ] && [ "$1" -lt 128 ] &&
              grep -q "hang.h5: .*corrupt global heap" inspect.err' _ "$rc"
 
+# A fuzz_h5raw crash (ASan: memcpy-param-overlap in H5HG_read): a collection
+# declared larger than HDF5's first read, which HDF5 then reads in two parts,
+# with an object of about 1 TB.
+cp "$DTX_SRC/tests/io/corpus/h5/gheap-two-part-overrun.h5" overrun.h5
+check "collection read in two parts, object past its end: refused" \
+    expect_refused overrun overrun.h5 "cannot read attribute format" \
+    "corrupt global heap collection at address 2048" "has size 1099511626499"
+
 # A file dtx writes itself reads as before through the driver, and the two
 # corruptions made on it are each refused.
 printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n' > tri.obj
