@@ -10,6 +10,7 @@
  */
 #define _GNU_SOURCE 1 /* fallocate */
 #include "h5layout.h"
+#include "h5guard.h"
 #include "h5mesh_attrs.h"
 #include "file_util.h"
 #include "write_reason.h"
@@ -223,8 +224,15 @@ static const char *obj_path(hid_t loc, const char *obj, char *buf, size_t n)
         append(buf, n, &used, obj);
         return buf;
     }
-    if (H5Iget_name(loc, base, sizeof base) <= 0)
-        snprintf(base, sizeof base, "/");
+    {
+        /* H5Iget_name clears HDF5's error stack, which the caller (an
+         * argument of h5err) has yet to read: keep it aside meanwhile. */
+        hid_t es = H5Eget_current_stack();
+        if (H5Iget_name(loc, base, sizeof base) <= 0)
+            snprintf(base, sizeof base, "/");
+        if (es >= 0)
+            (void)H5Eset_current_stack(es);
+    }
     append(buf, n, &used, base);
     if (obj && strcmp(obj, ".") != 0 && obj[0] != '\0') {
         if (strcmp(base, "/") != 0)
@@ -409,6 +417,12 @@ static hid_t make_fapl(MPI_Comm comm)
     if (fapl < 0)
         return fapl;
     if (comm != MPI_COMM_NULL && H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL) < 0) {
+        CLOSE_ID(H5Pclose, fapl);
+        return H5I_INVALID_HID;
+    }
+    /* Serial files: sec2's I/O, with corrupt global heaps refused before
+     * HDF5 loops over them (h5guard.h). */
+    if (comm == MPI_COMM_NULL && dtx_h5_guard_set_fapl(fapl) < 0) {
         CLOSE_ID(H5Pclose, fapl);
         return H5I_INVALID_HID;
     }
