@@ -36,6 +36,8 @@ import bpy  # noqa: E402
 args = sys.argv[sys.argv.index("--") + 1:]
 fps, frames_dir, rest_obj, glb, pc2, mdd = int(args[0]), args[1], args[2], args[3], args[4], args[5]
 asset_glb, asset_obj = (args[6], args[7]) if len(args) >= 8 else (None, None)
+# A frame of the asset's result exported by `dtx export --obj-dir` (with vt/usemtl).
+asset_frame_obj = args[8] if len(args) >= 9 else None
 fails = 0
 
 
@@ -227,6 +229,31 @@ if asset_glb:
             ok = not base.links and "Kd" in want and max(abs(a - b) for a, b in zip(c, want["Kd"])) < 1e-6
             report(ok, "%s: material %s: base colour %s = the .mtl's Kd %s" % (
                 name, m.name, ["%.3g" % x for x in c], want.get("Kd")))
+
+if asset_frame_obj:
+    # The OBJ export of the asset's result: Blender's OBJ importer reads its
+    # UVs and materials, and they are the asset's own.
+    sc = fresh_scene()
+    obj = import_obj(asset_frame_obj)
+    me = obj.data
+    AV, AT, tris, mat_names, lib = read_asset(asset_obj)
+    EV, ET, etris, emats, elib = read_asset(asset_frame_obj)
+    name = os.path.basename(asset_frame_obj)
+    report(len(me.uv_layers) == 1 and len(me.loops) == 3 * len(tris),
+           "%s: %d UV layer(s), %d loops for the asset's %d triangles"
+           % (name, len(me.uv_layers), len(me.loops), len(tris)))
+    if len(me.uv_layers) == 1 and len(me.loops) == 3 * len(tris):
+        uv = np.empty(2 * len(me.loops))
+        me.uv_layers[0].data.foreach_get("uv", uv)
+        # Blender keeps the file's face order: loop k is corner k of the file.
+        want = np.array([AT[c[1]] for t in tris for c in t[0]])
+        err = float(np.abs(uv.reshape(-1, 2) - want).max())
+        tol = 4 * np.finfo(np.float32).eps
+        report(err <= tol, "%s: UVs at all %d loops = the asset's vt, max |difference| %.3g "
+               "(tolerance %.3g)" % (name, len(me.loops), err, tol))
+    got = [m.name for m in me.materials]
+    report(got == mat_names and elib == lib,
+           "%s: materials %s and mtllib %s (the asset's: %s, %s)" % (name, got, elib, mat_names, lib))
 
 print("blender_check: %d failed" % fails)
 sys.exit(1 if fails else 0)

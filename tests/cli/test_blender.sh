@@ -52,14 +52,19 @@ sed 's#"/meshes/lion"#"/meshes/lion-uv"#; s#"out.h5"#"out-uv.h5"#' job.json > jo
 "$DTX" run --quiet job-uv.json || { echo "FAILED: the uvsplit job did not run"; exit 1; }
 check "export the uvsplit lion's result as glb with its UVs, materials and texture" \
     "$DTX" export out-uv.h5 $R --glb lion-uv.glb
+rm -rf uvframes
+check "export the uvsplit lion's result as OBJ frames with vt, vn, usemtl and mtllib" \
+    "$DTX" export out-uv.h5 $R --obj-dir uvframes
+cp asset/lion-uv.mtl asset/checker.png uvframes/ 2>/dev/null
 
 # ---- Blender (its own messages go to blender.log; the checks are printed)
 blender -b --factory-startup --python-exit-code 1 --python "$DTX_SRC/tests/cli/blender_check.py" \
     -- 30 frames lion-rest.obj lion.glb lion.pc2 lion.mdd lion-uv.glb asset/lion-uv.obj \
+    uvframes/cat-poses-00005.obj \
     > blender.log 2>&1
 rc=$?
 grep -E '^(ok|FAILED|blender_check):' blender.log
-check "Blender 3.4 plays the OBJ, glb, PC2 and MDD as the HDF5 result and reads the glb's UVs, materials and texture (exit $rc)" \
-    test "$rc" -eq 0 -a "$(grep -c '^ok:' blender.log)" -eq 20
+check "Blender 3.4 plays the OBJ, glb, PC2 and MDD as the HDF5 result and reads the glb's and the OBJ's UVs, materials and texture (exit $rc)" \
+    test "$rc" -eq 0 -a "$(grep -c '^ok:' blender.log)" -eq 23
 [ "$rc" -eq 0 ] || tail -n 30 blender.log
 finish
