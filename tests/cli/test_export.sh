@@ -11,6 +11,7 @@
 # and an existing output untouched.  The Khronos validator runs in
 # test_gltf_validator.sh.
 set -uo pipefail
+. "$DTX_SRC/tests/lib.sh"
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 PY=/usr/bin/python3
@@ -40,21 +41,7 @@ reject() {
 hex32() { od -An -tx4 -j "$2" -N4 "$1" | tr -d ' \n'; }
 
 # ---- a 9-frame result: the cat poses onto the lion
-"$DTX" import mesh "$D/source/cat-reference.obj" -o cl.h5 --name cat 2>/dev/null
-"$DTX" import mesh "$D/target/lion-reference.obj" -o cl.h5 --name lion 2>/dev/null
-mkdir -p poses
-for k in 1 2 3 4 5 6 7 8 9; do ln -sf "$D/source/cat-0$k.obj" "poses/cat-$k.obj"; done
-"$DTX" import sequence poses -o cl.h5 --name cat-poses --mesh /meshes/cat 2>/dev/null
-"$DTX" import markers "$D/markers.csv" --index-base 0 -o cl.h5 --name cat-lion \
-    --source /meshes/cat --target /meshes/lion 2>/dev/null
-cat > job.json <<'JOB'
-{"dtx_job": 1, "method": "sp04",
- "source": {"file": "cl.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
- "targets": [{"name": "lion", "file": "cl.h5", "mesh": "/meshes/lion",
-              "markers": {"file": "cl.h5", "path": "/markers/cat-lion"}}],
- "output": {"file": "out.h5"}}
-JOB
-"$DTX" run --quiet job.json || { echo "FAILED: the job did not run"; exit 1; }
+cat_lion_result || exit 1
 R=/results/lion/cat-poses
 
 # ---- everything at once

@@ -19,6 +19,7 @@
 # (Debian's nodejs and npm, then the validator into build-tools/;
 # DTX_GLTF_VALIDATOR_DIR overrides where to look).
 set -uo pipefail
+. "$DTX_SRC/tests/lib.sh"
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
 VDIR=${DTX_GLTF_VALIDATOR_DIR:-$DTX_SRC/build-tools}
@@ -64,21 +65,7 @@ valid() {
 }
 
 # ---- the cat -> lion result
-"$DTX" import mesh "$D/source/cat-reference.obj" -o cl.h5 --name cat 2>/dev/null
-"$DTX" import mesh "$D/target/lion-reference.obj" -o cl.h5 --name lion 2>/dev/null
-mkdir -p poses
-for k in 1 2 3 4 5 6 7 8 9; do ln -sf "$D/source/cat-0$k.obj" "poses/cat-$k.obj"; done
-"$DTX" import sequence poses -o cl.h5 --name cat-poses --mesh /meshes/cat 2>/dev/null
-"$DTX" import markers "$D/markers.csv" --index-base 0 -o cl.h5 --name cat-lion \
-    --source /meshes/cat --target /meshes/lion 2>/dev/null
-cat > job.json <<'JOB'
-{"dtx_job": 1, "method": "sp04",
- "source": {"file": "cl.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/cat-poses"]},
- "targets": [{"name": "lion", "file": "cl.h5", "mesh": "/meshes/lion",
-              "markers": {"file": "cl.h5", "path": "/markers/cat-lion"}}],
- "output": {"file": "out.h5"}}
-JOB
-"$DTX" run --quiet job.json || { echo "FAILED: the job did not run"; exit 1; }
+cat_lion_result || exit 1
 R=/results/lion/cat-poses
 "$DTX" export out.h5 $R --glb lion.glb && valid lion.glb
 "$DTX" export out.h5 $R --glb lion-step.glb --stride 2 --step --fps 30 && valid lion-step.glb
