@@ -1,15 +1,11 @@
-/* obj.c: Wavefront OBJ meshes, read (v and f lines) and written. */
-#include "atomic_file.h"
+/* obj.c: Wavefront OBJ meshes, read (v and f lines) and written (through
+ * obj_write.c's writer, without attributes). */
 #include "meshfile.h"
 #include "meshfile_util.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
-
-#ifndef DTX_VERSION
-#define DTX_VERSION "unknown"
-#endif
 
 static int is_kw(const char *k, size_t n, const char *lit)
 {
@@ -282,72 +278,14 @@ dtx_status dtx_obj_read(const char *path, dtx_mesh *out, const dtx_warner *w, dt
 
 /* ------------------------------------------------------------------ writing */
 
-/* Exactly one of Vd, Vf is non-NULL. */
-static dtx_status obj_write(const char *path, const double *Vd, const float *Vf, int32_t nv,
-                            const int32_t *F, int32_t nf, const char *comment, dtx_error *err)
-{
-    dtx_atomic_file af;
-    dtx_status st;
-
-    /* ---- check everything before the file exists */
-    if (nv < 0 || nf < 0 || (nv > 0 && !Vd && !Vf) || (nf > 0 && !F))
-        return dtx_seterr(err, DTX_EINVAL, "%s: bad mesh arguments (nv %d, nf %d)", path, (int)nv,
-                          (int)nf);
-    for (int64_t i = 0; i < 3 * (int64_t)nv; i++) {
-        double x = Vd ? Vd[i] : (double)Vf[i];
-        if (!isfinite(x))
-            return dtx_seterr(err, DTX_ENONFINITE,
-                              "%s: vertex %lld (0-based) has a non-finite coordinate; not "
-                              "written",
-                              path, (long long)(i / 3));
-    }
-    for (int64_t i = 0; i < 3 * (int64_t)nf; i++)
-        if (F[i] < 0 || F[i] >= nv)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "%s: face %lld (0-based) has vertex index %d out of range [0, %d); "
-                              "not written",
-                              path, (long long)(i / 3), (int)F[i], (int)nv);
-
-    st = dtx_atomic_open(&af, path, err);
-    if (st != DTX_OK)
-        return st;
-    fprintf(af.fp, "# Written by dtx %s\n# %d vertices, %d triangles\n", DTX_VERSION, (int)nv,
-            (int)nf);
-    if (comment) {
-        const char *c = comment;
-        while (*c) {
-            size_t n = strcspn(c, "\n");
-            size_t m = n;
-            if (m > 0 && c[m - 1] == '\r')
-                m--;
-            fprintf(af.fp, "# %.*s\n", (int)m, c);
-            c += n;
-            if (*c == '\n')
-                c++;
-        }
-    }
-    if (Vd) {
-        for (int32_t i = 0; i < nv; i++)
-            fprintf(af.fp, "v %.17g %.17g %.17g\n", Vd[3 * i], Vd[3 * i + 1], Vd[3 * i + 2]);
-    } else {
-        for (int32_t i = 0; i < nv; i++)
-            fprintf(af.fp, "v %.9g %.9g %.9g\n", (double)Vf[3 * i], (double)Vf[3 * i + 1],
-                    (double)Vf[3 * i + 2]);
-    }
-    for (int32_t f = 0; f < nf; f++)
-        fprintf(af.fp, "f %ld %ld %ld\n", (long)F[3 * f] + 1, (long)F[3 * f + 1] + 1,
-                (long)F[3 * f + 2] + 1);
-    return dtx_atomic_commit(&af, err);
-}
-
 dtx_status dtx_obj_write(const char *path, const double *V, int32_t nv, const int32_t *F,
                          int32_t nf, const char *comment, dtx_error *err)
 {
-    return obj_write(path, V, NULL, nv, F, nf, comment, err);
+    return dtx_obj_write_attrs(path, V, NULL, nv, F, nf, NULL, comment, err);
 }
 
 dtx_status dtx_obj_write_f32(const char *path, const float *V, int32_t nv, const int32_t *F,
                              int32_t nf, const char *comment, dtx_error *err)
 {
-    return obj_write(path, NULL, V, nv, F, nf, comment, err);
+    return dtx_obj_write_attrs(path, NULL, V, nv, F, nf, NULL, comment, err);
 }

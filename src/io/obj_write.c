@@ -70,7 +70,10 @@ dtx_status dtx_obj_write_attrs(const char *path, const double *Vd, const float *
         const char *c = comment;
         while (*c) {
             size_t n = strcspn(c, "\n");
-            fprintf(af.fp, "# %.*s\n", (int)n, c);
+            size_t m = n;
+            if (m > 0 && c[m - 1] == '\r')
+                m--;
+            fprintf(af.fp, "# %.*s\n", (int)m, c);
             c += n;
             if (*c == '\n')
                 c++;
