@@ -16,6 +16,7 @@
  * rounds to float32.
  */
 #include "gltf.h"
+#include "byteorder.h"
 
 #include "atomic_file.h"
 #include "weld.h"
@@ -40,23 +41,6 @@ enum {
 #define GLB_MAGIC 0x46546C67u      /* "glTF" */
 #define GLB_CHUNK_JSON 0x4E4F534Au /* "JSON" */
 #define GLB_CHUNK_BIN 0x004E4942u  /* "BIN\0" */
-
-/* ------------------------------------------------------------ byte order */
-
-static void put_u32(unsigned char *p, uint32_t v)
-{
-    p[0] = (unsigned char)(v & 0xffu);
-    p[1] = (unsigned char)((v >> 8) & 0xffu);
-    p[2] = (unsigned char)((v >> 16) & 0xffu);
-    p[3] = (unsigned char)((v >> 24) & 0xffu);
-}
-
-static void put_f32(unsigned char *p, float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    put_u32(p, u);
-}
 
 static uint64_t align4(uint64_t n) { return (n + 3u) & ~(uint64_t)3u; }
 
@@ -125,12 +109,6 @@ static void jvec3(jctx *j, cJSON *acc, const char *key, const float *v)
     cJSON *a = jarr(j, acc, key);
     for (int c = 0; c < 3; c++)
         jflt(j, a, NULL, v[c]);
-}
-
-static void put_u16(unsigned char *p, uint32_t v)
-{
-    p[0] = (unsigned char)(v & 0xffu);
-    p[1] = (unsigned char)((v >> 8) & 0xffu);
 }
 
 static void buffer_view(jctx *j, cJSON *views, uint64_t off, uint64_t len, int stride, int target)
@@ -555,7 +533,7 @@ static cJSON *make_json(const doc_in *d, const dtx_glb_opts *o, jctx *j)
 static void write_f32s(FILE *fp, unsigned char *bytes, const float *v, size_t n)
 {
     for (size_t i = 0; i < n; i++)
-        put_f32(bytes + 4 * i, v[i]);
+        dtx_put_lef32(bytes + 4 * i, v[i]);
     fwrite(bytes, 4, n, fp);
 }
 
@@ -780,16 +758,16 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     st = dtx_atomic_open(&af, path, err);
     if (st != DTX_OK)
         goto fail;
-    put_u32(head, GLB_MAGIC);
-    put_u32(head + 4, 2);
-    put_u32(head + 8, (uint32_t)file_len);
-    put_u32(head + 12, (uint32_t)json_pad);
-    put_u32(head + 16, GLB_CHUNK_JSON);
+    dtx_put_le32(head, GLB_MAGIC);
+    dtx_put_le32(head + 4, 2);
+    dtx_put_le32(head + 8, (uint32_t)file_len);
+    dtx_put_le32(head + 12, (uint32_t)json_pad);
+    dtx_put_le32(head + 16, GLB_CHUNK_JSON);
     fwrite(head, 1, 20, af.fp);
     fwrite(json, 1, json_len, af.fp);
     fwrite("   ", 1, json_pad - json_len, af.fp);
-    put_u32(head, (uint32_t)L.total);
-    put_u32(head + 4, GLB_CHUNK_BIN);
+    dtx_put_le32(head, (uint32_t)L.total);
+    dtx_put_le32(head + 4, GLB_CHUNK_BIN);
     fwrite(head, 1, 8, af.fp);
 
     /* positions, normals, UVs */
@@ -805,10 +783,10 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
             for (int c = 0; c < 3; c++) {
                 uint32_t v = (uint32_t)g.GF[3 * (size_t)f + c];
                 if (L.ushort) {
-                    put_u16(bytes, v);
+                    dtx_put_le16(bytes, v);
                     fwrite(bytes, 1, 2, af.fp);
                 } else {
-                    put_u32(bytes, v);
+                    dtx_put_le32(bytes, v);
                     fwrite(bytes, 1, 4, af.fp);
                 }
             }
@@ -849,10 +827,10 @@ dtx_status dtx_glb_write(const char *path, const dtx_mesh *rest, int64_t nframes
     /* ---- times, then the sparse weights: indices k * T + k, values 1 */
     write_f32s(af.fp, bytes, times, (size_t)T);
     for (int64_t k = 0; k < T; k++)
-        put_u32(bytes + 4 * k, (uint32_t)(k * T + k));
+        dtx_put_le32(bytes + 4 * k, (uint32_t)(k * T + k));
     fwrite(bytes, 4, (size_t)T, af.fp);
     for (int64_t k = 0; k < T; k++)
-        put_f32(bytes + 4 * k, 1.0f);
+        dtx_put_lef32(bytes + 4 * k, 1.0f);
     fwrite(bytes, 4, (size_t)T, af.fp);
     st = dtx_atomic_commit(&af, err); /* checks every write above */
 

@@ -10,6 +10,7 @@
  * code and its style sheet are compiled in (cmake/embed.cmake).
  */
 #include "html_view.h"
+#include "byteorder.h"
 
 #include "atomic_file.h"
 
@@ -239,23 +240,6 @@ static int put_blob(FILE *f, int *nblobs, const void *data, size_t n)
     return (*nblobs)++;
 }
 
-/* Little-endian bytes of 32-bit values (the page reads them with typed
- * arrays, which use the machine's order: every browser's is little). */
-static void put_le32(unsigned char *b, uint32_t v)
-{
-    b[0] = (unsigned char)v;
-    b[1] = (unsigned char)(v >> 8);
-    b[2] = (unsigned char)(v >> 16);
-    b[3] = (unsigned char)(v >> 24);
-}
-
-static void float_le(unsigned char *b, float x)
-{
-    uint32_t u;
-    memcpy(&u, &x, 4);
-    put_le32(b, u);
-}
-
 /* ------------------------------------------------------------ checks */
 
 static dtx_status check_page(const char *path, const dtx_view_page *pg, dtx_error *err)
@@ -332,11 +316,13 @@ static int put_pane(FILE *f, FILE *json, int *nblobs, const dtx_view_pane *p)
         big = (size_t)p->nframes * nc * 2;
     if (!(b = malloc(big)))
         return -1;
+    /* Little-endian: the page reads these with typed arrays, which use the
+     * machine's order, and every browser's is little. */
     for (size_t k = 0; k < nfc; k++)
-        put_le32(b + 4 * k, (uint32_t)m->F[k]);
+        dtx_put_le32(b + 4 * k, (uint32_t)m->F[k]);
     bf = put_blob(f, nblobs, b, nfc * 4);
     for (size_t k = 0; k < nc; k++)
-        float_le(b + 4 * k, (float)m->V[k]);
+        dtx_put_lef32(b + 4 * k, (float)m->V[k]);
     br = put_blob(f, nblobs, b, nc * 4);
     if (p->nframes > 0) {
         /* Quantise over the bounding box of the frames, per axis. */

@@ -5,50 +5,13 @@
  * same on any host.
  */
 #include "mdd.h"
+#include "byteorder.h"
 
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* ------------------------------------------------------------ byte order */
-
-static void put_be32(unsigned char *p, uint32_t v)
-{
-    p[0] = (unsigned char)((v >> 24) & 0xffu);
-    p[1] = (unsigned char)((v >> 16) & 0xffu);
-    p[2] = (unsigned char)((v >> 8) & 0xffu);
-    p[3] = (unsigned char)(v & 0xffu);
-}
-
-static void put_bef32(unsigned char *p, float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    put_be32(p, u);
-}
-
-static uint32_t get_be32(const unsigned char *p)
-{
-    return (uint32_t)p[0] << 24 | (uint32_t)p[1] << 16 | (uint32_t)p[2] << 8 | (uint32_t)p[3];
-}
-
-static float get_bef32(const unsigned char *p)
-{
-    uint32_t u = get_be32(p);
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
-
-static int32_t get_bei32(const unsigned char *p)
-{
-    uint32_t u = get_be32(p);
-    int32_t v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
 
 /* ---------------------------------------------------------------- writing */
 
@@ -81,11 +44,11 @@ dtx_status dtx_mdd_begin(dtx_mdd_writer *w, const char *path, int32_t num_points
     }
     w->num_points = num_points;
     w->num_samples = num_samples;
-    put_be32(b, (uint32_t)num_samples);
-    put_be32(b + 4, (uint32_t)num_points);
+    dtx_put_be32(b, (uint32_t)num_samples);
+    dtx_put_be32(b + 4, (uint32_t)num_points);
     fwrite(b, 1, 8, w->af.fp); /* errors: caught by the commit */
     for (int32_t k = 0; k < num_samples; k++) {
-        put_bef32(b, times[k]);
+        dtx_put_bef32(b, times[k]);
         fwrite(b, 1, 4, w->af.fp);
     }
     return DTX_OK;
@@ -118,7 +81,7 @@ dtx_status dtx_mdd_write_sample(dtx_mdd_writer *w, const double *X, dtx_error *e
             dtx_mdd_abort(w);
             return st;
         }
-        put_bef32(w->buf + 4 * i, (float)X[i]);
+        dtx_put_bef32(w->buf + 4 * i, (float)X[i]);
     }
     fwrite(w->buf, 12, (size_t)w->num_points, w->af.fp);
     w->written++;
@@ -157,11 +120,11 @@ dtx_status dtx_mdd_parse(const char *name, const unsigned char *buf, size_t len,
     if (len < 8)
         return dtx_seterr(err, DTX_EPARSE, "%s: %zu bytes, shorter than the 8-byte MDD header",
                           name, len);
-    T = get_bei32(buf);
-    n = get_bei32(buf + 4);
+    T = dtx_get_bei32(buf);
+    n = dtx_get_bei32(buf + 4);
     if (T < 1 || n < 1)
-        return dtx_seterr(err, DTX_EPARSE, "%s: %d samples and %d points (both must be >= 1)",
-                          name, (int)T, (int)n);
+        return dtx_seterr(err, DTX_EPARSE, "%s: %d samples and %d points (both must be >= 1)", name,
+                          (int)T, (int)n);
     want = 8u + 4u * (uint64_t)T + 12u * (uint64_t)n * (uint64_t)T;
     if ((uint64_t)len != want)
         return dtx_seterr(err, DTX_EPARSE,
@@ -178,9 +141,9 @@ dtx_status dtx_mdd_parse(const char *name, const unsigned char *buf, size_t len,
         return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for %zu floats", name, np);
     }
     for (int32_t k = 0; k < T; k++)
-        (*times)[k] = get_bef32(buf + 8 + 4 * (size_t)k);
+        (*times)[k] = dtx_get_bef32(buf + 8 + 4 * (size_t)k);
     for (size_t i = 0; i < np; i++)
-        (*P)[i] = get_bef32(buf + 8 + 4 * (size_t)T + 4 * i);
+        (*P)[i] = dtx_get_bef32(buf + 8 + 4 * (size_t)T + 4 * i);
     *num_samples = T;
     *num_points = n;
     return DTX_OK;

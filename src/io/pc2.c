@@ -5,6 +5,7 @@
  * same on any host.
  */
 #include "pc2.h"
+#include "byteorder.h"
 
 #include "meshfile_util.h"
 
@@ -13,44 +14,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* ------------------------------------------------------------ byte order */
-
-static void put_u32(unsigned char *p, uint32_t v)
-{
-    p[0] = (unsigned char)(v & 0xffu);
-    p[1] = (unsigned char)((v >> 8) & 0xffu);
-    p[2] = (unsigned char)((v >> 16) & 0xffu);
-    p[3] = (unsigned char)((v >> 24) & 0xffu);
-}
-
-static void put_f32(unsigned char *p, float f)
-{
-    uint32_t u;
-    memcpy(&u, &f, sizeof u);
-    put_u32(p, u);
-}
-
-static uint32_t get_u32(const unsigned char *p)
-{
-    return (uint32_t)p[0] | (uint32_t)p[1] << 8 | (uint32_t)p[2] << 16 | (uint32_t)p[3] << 24;
-}
-
-static int32_t get_i32(const unsigned char *p)
-{
-    uint32_t u = get_u32(p);
-    int32_t v;
-    memcpy(&v, &u, sizeof v);
-    return v;
-}
-
-static float get_f32(const unsigned char *p)
-{
-    uint32_t u = get_u32(p);
-    float f;
-    memcpy(&f, &u, sizeof f);
-    return f;
-}
 
 /* ---------------------------------------------------------------- writing */
 
@@ -88,11 +51,11 @@ dtx_status dtx_pc2_begin(dtx_pc2_writer *w, const char *path, int32_t num_points
     w->h.sample_rate = sample_rate;
     memset(head, 0, sizeof head);
     memcpy(head, DTX_PC2_SIGNATURE, strlen(DTX_PC2_SIGNATURE)); /* NUL from memset */
-    put_u32(head + 12, DTX_PC2_VERSION);
-    put_u32(head + 16, (uint32_t)num_points);
-    put_f32(head + 20, start_frame);
-    put_f32(head + 24, sample_rate);
-    put_u32(head + 28, (uint32_t)num_samples);
+    dtx_put_le32(head + 12, DTX_PC2_VERSION);
+    dtx_put_le32(head + 16, (uint32_t)num_points);
+    dtx_put_lef32(head + 20, start_frame);
+    dtx_put_lef32(head + 24, sample_rate);
+    dtx_put_le32(head + 28, (uint32_t)num_samples);
     fwrite(head, 1, sizeof head, w->af.fp); /* errors: caught by the commit */
     return DTX_OK;
 }
@@ -128,7 +91,7 @@ static dtx_status write_sample(dtx_pc2_writer *w, const double *Xd, const float 
             dtx_pc2_abort(w);
             return st;
         }
-        put_f32(w->buf + 4 * i, f);
+        dtx_put_lef32(w->buf + 4 * i, f);
     }
     fwrite(w->buf, 12, (size_t)np, w->af.fp);
     w->written++;
@@ -179,11 +142,11 @@ dtx_status dtx_pc2_parse(const char *name, const unsigned char *buf, size_t len,
     if (memcmp(buf, DTX_PC2_SIGNATURE, sizeof DTX_PC2_SIGNATURE) != 0)
         return dtx_seterr(err, DTX_EPARSE,
                           "%s: not a PC2 point cache (no \"POINTCACHE2\\0\" signature)", name);
-    h->version = get_i32(buf + 12);
-    h->num_points = get_i32(buf + 16);
-    h->start_frame = get_f32(buf + 20);
-    h->sample_rate = get_f32(buf + 24);
-    h->num_samples = get_i32(buf + 28);
+    h->version = dtx_get_lei32(buf + 12);
+    h->num_points = dtx_get_lei32(buf + 16);
+    h->start_frame = dtx_get_lef32(buf + 20);
+    h->sample_rate = dtx_get_lef32(buf + 24);
+    h->num_samples = dtx_get_lei32(buf + 28);
     if (h->version != DTX_PC2_VERSION)
         return dtx_seterr(err, DTX_EPARSE, "%s: PC2 version %d (only version 1 exists)", name,
                           (int)h->version);
@@ -205,7 +168,7 @@ dtx_status dtx_pc2_parse(const char *name, const unsigned char *buf, size_t len,
     if (!out)
         return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for %zu floats", name, n);
     for (size_t i = 0; i < n; i++)
-        out[i] = get_f32(buf + DTX_PC2_HEADER_BYTES + 4 * i);
+        out[i] = dtx_get_lef32(buf + DTX_PC2_HEADER_BYTES + 4 * i);
     *P = out;
     return DTX_OK;
 }
