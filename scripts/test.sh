@@ -12,7 +12,8 @@
 #   DTX_SANITIZE_TESTS    0/1: also run the sanitizer pass (default 1 if CI=true, else 0)
 #   CTEST_JOBS            parallel tests (default 2)
 # Exit status: 0 when every pass passed, else the first failing ctest's status
-# (or the failing step's). The last line sums up all passes: "total: N passed, M failed".
+# (or the failing step's). Before the summary, a table of each test's seconds per pass
+# and each pass's wall time. The last line sums up all passes: "total: N passed, M failed".
 set -uo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -27,6 +28,10 @@ ctest_jobs=${CTEST_JOBS:-2}
 
 status=0
 summary=()
+pass_dirs=()
+pass_walls=()
+times=$(mktemp -d "${TMPDIR:-/tmp}/dtx-times.XXXXXX")
+trap 'rm -rf "$times"' EXIT
 total_pass=0
 total_fail=0
 
@@ -43,9 +48,15 @@ run_pass() {
     fi
     log=$(mktemp "${TMPDIR:-/tmp}/dtx-ctest.XXXXXX")
     echo "test: running ctest in $dir"
+    local t0=$SECONDS
     ctest --test-dir "$repo/$dir" --output-on-failure --no-tests=error -j "$ctest_jobs" \
         "${ctest_args[@]}" 2>&1 | tee "$log"
     rc=${PIPESTATUS[0]}
+    pass_dirs+=("$dir")
+    pass_walls+=($((SECONDS - t0)))
+    # "12/72 Test #12: core.sp04 ....   Passed    0.34 sec" -> "core.sp04 0.34"
+    sed -nE 's/^ *[0-9]+\/[0-9]+ Test +#[0-9]+: ([^ ]+) .* ([0-9.]+) sec$/\1 \2/p' \
+        "$log" > "$times/$dir"
     line=$(grep -E '^[0-9]+% tests passed, [0-9]+ tests? failed out of [0-9]+' "$log" | tail -n 1)
     # LeakSanitizer's own thread-stopping tracer sometimes crashes at exit on
     # a loaded machine ("Tracer caught signal 11", "LeakSanitizer has
@@ -101,6 +112,40 @@ if [[ $sanitize_tests == 1 ]]; then
     export HWLOC_COMPONENTS=${HWLOC_COMPONENTS:--gl,-opencl}
     run_pass build-asan --sanitize
 fi
+
+# time_table: each test's seconds in each pass (the slowest first, by their
+# sum), and each pass's wall time, so the suite's cost is visible in CI's log.
+time_table() {
+    local i
+    [[ ${#pass_dirs[@]} -gt 0 ]] || return 0
+    echo
+    echo "test: time per test (s; ctest runs $ctest_jobs at a time)"
+    (cd "$times" && awk -v dirs="${pass_dirs[*]}" '
+        BEGIN { n = split(dirs, d, " ") }
+        { t[$1, FILENAME] = $2; sum[$1] += $2; names[$1] = 1 }
+        END {
+            head = sprintf("  %-32s", "test")
+            for (i = 1; i <= n; i++) head = head sprintf(" %10s", d[i])
+            print head
+            for (k in names) order[++m] = k
+            # sort by the sum, largest first (insertion sort: ~100 tests)
+            for (i = 2; i <= m; i++) {
+                x = order[i]
+                for (j = i - 1; j >= 1 && sum[order[j]] < sum[x]; j--) order[j + 1] = order[j]
+                order[j + 1] = x
+            }
+            for (i = 1; i <= m; i++) {
+                line = sprintf("  %-32s", order[i])
+                for (j = 1; j <= n; j++)
+                    line = line sprintf(" %10s", ((order[i], d[j]) in t) ? t[order[i], d[j]] : "-")
+                print line
+            }
+        }' "${pass_dirs[@]}")
+    for i in "${!pass_dirs[@]}"; do
+        echo "  ${pass_dirs[$i]}: ctest wall time ${pass_walls[$i]} s"
+    done
+}
+time_table
 
 echo
 echo "test: summary"
