@@ -23,17 +23,17 @@
 
 #include "atomic_file.h"
 #include "dtx_core.h"
+#include "file_util.h"
 #include "h5layout.h"
 #include "keypoint_setup.h"
 #include "keypoints.h"
+#include "mpi_util.h"
 
 #include <errno.h>
-#include <limits.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 /* OpenBLAS's own call, when that is the BLAS we run on (as in dtx run). */
@@ -69,12 +69,6 @@ static int usage(int rank, const char *msg)
         dtx_cli_print_usage(stderr, dtx_cli_find_name("keypoints"));
     }
     return 2;
-}
-
-static const char *base_name(const char *path)
-{
-    const char *s = strrchr(path, '/');
-    return s ? s + 1 : path;
 }
 
 /* The job's target-name characters, and the layout's name rule (not "." or
@@ -181,36 +175,15 @@ static const char *parse_args(int argc, char **argv, kp_args *a, char *buf, size
     if (name)
         snprintf(a->name, sizeof a->name, "%s", name);
     else
-        snprintf(a->name, sizeof a->name, "%.200s-keys", base_name(a->mesh));
+        snprintf(a->name, sizeof a->name, "%.200s-keys", dtx_path_base_name(a->mesh));
     if (!valid_name(a->name)) {
         snprintf(buf, n, "--name \"%.200s\" must be letters, digits, '_', '.' or '-', not . or .. and not starting with .dtx-%s", a->name,
                  name ? "" : " (it defaults to the mesh name + \"-keys\"; give --name)");
         return buf;
     }
-    if (a->target && !valid_name(base_name(a->target)))
+    if (a->target && !valid_name(dtx_path_base_name(a->target)))
         return "the --target mesh's name must be letters, digits, '_', '.' or '-'";
     return NULL;
-}
-
-/* ------------------------------------------------------------------ */
-/* Agreement                                                           */
-/* ------------------------------------------------------------------ */
-
-/* The status and message of the lowest failing rank, on every rank. */
-static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
-{
-    int rank, mine, first, code;
-    MPI_Comm_rank(comm, &rank);
-    mine = st != DTX_OK ? rank : INT_MAX;
-    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
-    if (first == INT_MAX)
-        return DTX_OK;
-    code = (int)err->code;
-    MPI_Bcast(&code, 1, MPI_INT, first, comm);
-    MPI_Bcast(err->msg, (int)sizeof err->msg, MPI_CHAR, first, comm);
-    err->code = (dtx_status)code;
-    err->msg[sizeof err->msg - 1] = '\0';
-    return err->code != DTX_OK ? err->code : DTX_EMPI;
 }
 
 /* ------------------------------------------------------------------ */
@@ -277,10 +250,8 @@ static dtx_status read_inputs(const kp_args *a, kp_state *s, dtx_error *err)
 /* 1 when a and b name the same existing file, or the same path. */
 static int same_file(const char *a, const char *b)
 {
-    struct stat sa, sb;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
-        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
-    return strcmp(a, b) == 0;
+    int same = dtx_file_same_inode(a, b);
+    return same >= 0 ? same : strcmp(a, b) == 0;
 }
 
 /* Rank 0, before the work: the output is a dtx file (or can be made) and
@@ -548,11 +519,11 @@ static dtx_status run(const kp_args *a, MPI_Comm comm, kp_state *s, dtx_error *e
     MPI_Comm_rank(comm, &rank);
     snprintf(s->kp_path, sizeof s->kp_path, "/keypoints/%s", a->name);
     snprintf(s->mk_path, sizeof s->mk_path, "/markers/%s-%s", a->name,
-             a->target ? base_name(a->target) : "");
+             a->target ? dtx_path_base_name(a->target) : "");
     st = read_inputs(a, s, err);
     if (st == DTX_OK && rank == 0)
         st = check_outputs(a, s, err);
-    if ((st = agree(comm, st, err)) != DTX_OK)
+    if ((st = dtx_mpi_agree(st, 0, comm, err)) != DTX_OK)
         return st;
     dtx_kp_params_default(&p);
     p.candidates = a->candidates;
@@ -573,7 +544,7 @@ static dtx_status run(const kp_args *a, MPI_Comm comm, kp_state *s, dtx_error *e
     }
     if (rank == 0)
         st = finish(a, s, err);
-    return agree(comm, st, err);
+    return dtx_mpi_agree(st, 0, comm, err);
 }
 
 int dtx_cmd_keypoints(int argc, char **argv)

@@ -13,6 +13,7 @@
 
 #include "options.h"
 
+#include "file_util.h"
 #include "h5layout.h"
 #include "meshfile.h"
 #include "path_guard.h"
@@ -26,7 +27,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
 #include <unistd.h>
 
 /* Most frames one picture shows. */
@@ -532,14 +532,6 @@ static dtx_status find_source(const char *result_file, const char *where, const 
                       where, ref);
 }
 
-/* 1 when a and b name the same file. */
-static int same_file(const char *a, const char *b)
-{
-    struct stat sa, sb;
-    return stat(a, &sa) == 0 && stat(b, &sb) == 0 && sa.st_dev == sb.st_dev &&
-           sa.st_ino == sb.st_ino;
-}
-
 /* ------------------------------------------------------------------ */
 /* Reading frames                                                      */
 /* ------------------------------------------------------------------ */
@@ -809,7 +801,8 @@ static dtx_status open_rows(hid_t f, const render_args *a, const char *path, int
                          "; use --no-source to draw the result alone");
             goto done;
         }
-        if (!same_file(sfile, a->input) &&
+        /* A source in the result's own file is read through f. */
+        if (dtx_file_same_inode(sfile, a->input) != 1 &&
             (st = dtx_h5_open(sfile, MPI_COMM_NULL, 0, fs, err)) != DTX_OK) {
             dtx_error_prefix(err, "%s: source sequence", where);
             goto done;

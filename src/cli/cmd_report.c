@@ -103,12 +103,6 @@ static int derive(const char *path, const char *suffix, char *out, size_t n)
     return (size_t)snprintf(out, n, "%.*s%s", (int)len, path, suffix) < n ? 0 : -1;
 }
 
-static const char *base_name(const char *path)
-{
-    const char *b = strrchr(path, '/');
-    return b ? b + 1 : path;
-}
-
 /* A file name from an HDF5 path: "/results/lion/cat-poses" ->
  * "lion-cat-poses"; characters other than letters, digits, '-', '_', '.'
  * become '_'. */
@@ -229,7 +223,7 @@ static void write_run(FILE *f, const cJSON *sum, const char *sum_path)
 {
     const cJSON *sec = cJSON_GetObjectItemCaseSensitive(sum, "seconds");
     const cJSON *mode = cJSON_GetObjectItemCaseSensitive(sum, "mode");
-    fprintf(f, "## Run\n\nFrom `%s`", base_name(sum_path));
+    fprintf(f, "## Run\n\nFrom `%s`", dtx_path_base_name(sum_path));
     if (cJSON_IsString(mode))
         fprintf(f, " (%s run)", mode->valuestring);
     fprintf(f,
@@ -563,7 +557,7 @@ int dtx_cmd_report(int argc, char **argv)
             sizeof pic_dir)
             return usage("report: the report name is too long");
     }
-    pic_link = base_name(pic_dir);
+    pic_link = dtx_path_base_name(pic_dir);
     {
         /* The page and its pictures never replace an input (the result
          * file, the run summary): dtx never writes over its inputs. */
@@ -610,7 +604,7 @@ int dtx_cmd_report(int argc, char **argv)
         }
     } else if ((st = dtx_atomic_open(&af, out, &err)) != DTX_OK)
         goto done;
-    fprintf(af.fp, "# dtx report: %s\n\n", base_name(a.input));
+    fprintf(af.fp, "# dtx report: %s\n\n", dtx_path_base_name(a.input));
     fprintf(af.fp, "File `%s`, %d result(s). Written by `dtx report` (dtx %s).\n\n", a.input, n,
             DTX_VERSION);
     if (n > RESULTS_MAX)
@@ -619,7 +613,7 @@ int dtx_cmd_report(int argc, char **argv)
         write_run(af.fp, sum, sum_path);
     else
         fprintf(af.fp, "No run summary (`%s`) next to the file: timings not shown.\n\n",
-                base_name(sum_path));
+                dtx_path_base_name(sum_path));
     for (int i = 0; i < n && i < RESULTS_MAX && st == DTX_OK; i++)
         st = write_result(af.fp, h, &a, found[i], pic_dir, pic_link, &err);
     if (html) {

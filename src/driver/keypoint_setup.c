@@ -4,7 +4,8 @@
  */
 #include "keypoint_setup.h"
 
-#include <limits.h>
+#include "mpi_util.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -91,29 +92,6 @@ static dtx_status reduce_min(void *ctx, double *errs, int32_t n, int local_ok, d
     return DTX_OK;
 }
 
-/* The status and message of the lowest failing rank, on every rank; a rank
- * whose own failure is the real one wins over ranks that only heard of it
- * ("another rank failed", DTX_EMPI). */
-static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
-{
-    int rank, nranks, mine, first;
-    MPI_Comm_rank(comm, &rank);
-    MPI_Comm_size(comm, &nranks);
-    mine = st == DTX_OK ? INT_MAX : (st == DTX_EMPI ? nranks + rank : rank);
-    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
-    if (first == INT_MAX)
-        return DTX_OK;
-    first = first >= nranks ? first - nranks : first;
-    {
-        int code = (int)err->code;
-        MPI_Bcast(&code, 1, MPI_INT, first, comm);
-        MPI_Bcast(err->msg, (int)sizeof err->msg, MPI_CHAR, first, comm);
-        err->code = (dtx_status)code;
-        err->msg[sizeof err->msg - 1] = '\0';
-    }
-    return err->code != DTX_OK ? err->code : DTX_EMPI;
-}
-
 dtx_status dtx_keypoints_select_comm(const dtx_mesh *src, int32_t nframes, const double *X,
                                      const dtx_kp_params *p, MPI_Comm comm, dtx_kp_result *res,
                                      dtx_error *err)
@@ -126,7 +104,9 @@ dtx_status dtx_keypoints_select_comm(const dtx_mesh *src, int32_t nframes, const
     q.reduce = q.part_count > 1 ? reduce_min : NULL;
     q.reduce_ctx = &c;
     st = dtx_keypoints_select(src, nframes, X, &q, res, err);
-    if ((st = agree(comm, st, err)) != DTX_OK)
+    /* A rank whose own failure is the real one wins over ranks that only
+     * heard of it from reduce_min ("another rank failed", DTX_EMPI). */
+    if ((st = dtx_mpi_agree(st, DTX_AGREE_OWN_FIRST, comm, err)) != DTX_OK)
         dtx_kp_result_free(res);
     return st;
 }

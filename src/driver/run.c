@@ -48,6 +48,7 @@
 #include "keypoint_setup.h"
 #include "keypoints.h"
 #include "meshfile.h"
+#include "mpi_util.h"
 #include "weld_setup.h"
 #include "output_lock.h"
 #include "path_guard.h"
@@ -168,32 +169,12 @@ typedef struct {
 /* Small helpers                                                       */
 /* ------------------------------------------------------------------ */
 
-/* Collective agreement on failures: DTX_OK when every rank succeeded, else
- * the status and message of the lowest failing rank, on every rank. */
+/* Collective agreement on failures (mpi_util.h): DTX_OK when every rank
+ * succeeded, else the status and message of the lowest failing rank, on
+ * every rank, the other ranks naming it when it is not rank 0. */
 static dtx_status agree(MPI_Comm comm, dtx_status st, dtx_error *err)
 {
-    int rank, mine, first;
-    struct {
-        int code;
-        char msg[sizeof err->msg];
-    } buf;
-    MPI_Comm_rank(comm, &rank);
-    mine = st != DTX_OK ? rank : INT_MAX;
-    MPI_Allreduce(&mine, &first, 1, MPI_INT, MPI_MIN, comm);
-    if (first == INT_MAX)
-        return DTX_OK;
-    memset(&buf, 0, sizeof buf);
-    if (rank == first) {
-        buf.code = (int)err->code;
-        memcpy(buf.msg, err->msg, sizeof buf.msg);
-    }
-    MPI_Bcast(&buf, (int)sizeof buf, MPI_BYTE, first, comm);
-    err->code = (dtx_status)buf.code;
-    memcpy(err->msg, buf.msg, sizeof err->msg);
-    err->msg[sizeof err->msg - 1] = '\0';
-    if (rank != first && first != 0)
-        dtx_error_prefix(err, "rank %d", first);
-    return err->code != DTX_OK ? err->code : DTX_EMPI;
+    return dtx_mpi_agree(st, DTX_AGREE_NAME_RANK, comm, err);
 }
 
 static double wtime(void) { return MPI_Wtime(); }
@@ -265,12 +246,6 @@ static dtx_status make_dirs(const char *path, int dir_only, dtx_error *err)
     if (buf[0] && mkdir(buf, 0777) != 0 && errno != EEXIST)
         return dtx_seterr(err, DTX_EIO, "%s: cannot create directory: %s", buf, strerror(errno));
     return DTX_OK;
-}
-
-static const char *base_name(const char *path)
-{
-    const char *s = strrchr(path, '/');
-    return s ? s + 1 : path;
 }
 
 static void stats_init(run_stats *s)
@@ -589,7 +564,7 @@ static dtx_status read_sequences(run_state *r, dtx_error *err)
     for (int s = 0; s < r->ns && st == DTX_OK; s++) {
         seq_ctx *sc = &r->sq[s];
         sc->path = r->seq_paths[s];
-        sc->name = base_name(sc->path);
+        sc->name = dtx_path_base_name(sc->path);
         for (int s2 = 0; s2 < s; s2++)
             if (strcmp(r->sq[s2].name, sc->name) == 0)
                 return dtx_seterr(err, DTX_EJOB,

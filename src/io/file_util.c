@@ -182,3 +182,17 @@ void dtx_path_relative(const char *target, const char *from, char *out, size_t n
     free(dir);
     free(fcopy);
 }
+
+int dtx_file_same_inode(const char *a, const char *b)
+{
+    struct stat sa, sb;
+    if (stat(a, &sa) != 0 || stat(b, &sb) != 0)
+        return -1;
+    return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+}
+
+const char *dtx_path_base_name(const char *path)
+{
+    const char *s = strrchr(path, '/');
+    return s ? s + 1 : path;
+}

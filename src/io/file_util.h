@@ -6,6 +6,10 @@
  * through here: the mesh readers, marker CSVs, PC2 caches, job files and the
  * HDF5 files before H5Fopen.
  *
+ * Also the small path helpers the layers above share (a relative path
+ * between two files, whether two paths are one file, a path's last
+ * component).
+ *
  * Messages name the path and the kind of file:
  *   "x.obj: not a regular file (a FIFO)"
  * All functions are reentrant.
@@ -51,5 +55,17 @@ dtx_status dtx_file_read_regular(const char *path, size_t max_bytes, char **buf,
  * cannot be resolved or does not fit, out gets target as given.  Used for
  * references between files that move together (a result and its source). */
 void dtx_path_relative(const char *target, const char *from, char *out, size_t n);
+
+/* Whether the paths a and b name the same file by stat(): 1 when both
+ * exist and have the same device and inode (hard links, symbolic links and
+ * other spellings of one file are the same), 0 when both exist and differ,
+ * -1 when either cannot be stat()ed (it does not exist, for one).  Callers
+ * choose what a missing file means for them. */
+int dtx_file_same_inode(const char *a, const char *b);
+
+/* The last component of path: what follows its last '/', or path itself
+ * when it has none ("dir/in.h5" gives "in.h5", "/meshes/lion" gives "lion",
+ * "dir/" gives "").  Points into path; nothing is allocated. */
+const char *dtx_path_base_name(const char *path);
 
 #endif /* DTX_FILE_UTIL_H */

@@ -282,11 +282,10 @@ static char *file_key(const char *p)
 /* 1 when a and b are the same file, 0 when not, -1 when out of memory. */
 static int same_file(const char *a, const char *b)
 {
-    struct stat sa, sb;
     char *ka, *kb;
-    int same;
-    if (stat(a, &sa) == 0 && stat(b, &sb) == 0)
-        return sa.st_dev == sb.st_dev && sa.st_ino == sb.st_ino;
+    int same = dtx_file_same_inode(a, b);
+    if (same >= 0)
+        return same;
     ka = file_key(a);
     kb = file_key(b);
     same = ka && kb ? strcmp(ka, kb) == 0 : -1;
@@ -324,17 +323,18 @@ static int valid_name(const char *s, dtx_error *err)
  * allocated; "" when there is none. */
 static char *base_name(const char *path)
 {
-    size_t end = strlen(path), start;
+    size_t end = strlen(path);
     char *s;
+    /* Trailing slashes end the path; they do not make its last part "". */
     while (end > 0 && path[end - 1] == '/')
         end--;
-    start = end;
-    while (start > 0 && path[start - 1] != '/')
-        start--;
-    s = malloc(end - start + 1);
+    s = malloc(end + 1);
     if (s) {
-        memcpy(s, path + start, end - start);
-        s[end - start] = '\0';
+        const char *b;
+        memcpy(s, path, end);
+        s[end] = '\0';
+        b = dtx_path_base_name(s);
+        memmove(s, b, strlen(b) + 1);
     }
     return s;
 }

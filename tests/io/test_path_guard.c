@@ -1,13 +1,17 @@
-/* test_path_guard.c: the input-protection rule (path_guard.h) and the
- * output lock (output_lock.h).
+/* test_path_guard.c: the input-protection rule (path_guard.h), the path
+ * helpers it shares with file_util.h, and the output lock (output_lock.h).
  *   - an output path is refused when it is an input by name, by another
  *     spelling (./, ..), through a hard link or a symbolic link, also when
  *     it does not exist yet and only its directory resolves; a distinct
  *     file is accepted; directories and FIFOs are refused as outputs;
+ *   - dtx_file_same_inode finds the same spellings and links, tells two
+ *     files apart and says -1 for a missing path; dtx_path_base_name gives
+ *     the part after the last '/' ("" after a trailing one);
  *   - the lock is exclusive, names its holder, is released, replaces a
  *     stale lock of a dead pid on this host, refuses one of another host
  *     until break_lock, and is never left half-written. */
 #include "check.h"
+#include "file_util.h"
 #include "output_lock.h"
 #include "path_guard.h"
 
@@ -55,6 +59,14 @@ static void test_guard(void)
     CHECK(link(in, hard) == 0);
     CHECK(symlink(in, sym) == 0);
 
+    /* Same file by device and inode only; a missing path is neither. */
+    CHECK_EQ_INT(dtx_file_same_inode(in, dotted), 1);
+    CHECK_EQ_INT(dtx_file_same_inode(hard, in), 1);
+    CHECK_EQ_INT(dtx_file_same_inode(in, sym), 1);
+    CHECK_EQ_INT(dtx_file_same_inode(in, other), 0);
+    CHECK_EQ_INT(dtx_file_same_inode(missing, in), -1);
+    CHECK_EQ_INT(dtx_file_same_inode(in, missing), -1);
+
     dtx_path_guard_init(&g);
     CHECK_EQ_INT(dtx_path_guard_add(&g, in, "/source/file", &e), DTX_OK);
     CHECK_EQ_INT(dtx_path_guard_add(&g, NULL, "ignored", &e), DTX_OK);
@@ -100,6 +112,16 @@ static void test_guard(void)
             CHECK(strstr(e.msg, "is a FIFO") != NULL);
         }
     }
+}
+
+static void test_base_name(void)
+{
+    const char *p = "dir/in.h5";
+    CHECK(dtx_path_base_name(p) == p + 4);
+    CHECK(strcmp(dtx_path_base_name("/meshes/lion"), "lion") == 0);
+    CHECK(strcmp(dtx_path_base_name("in.h5"), "in.h5") == 0);
+    CHECK(strcmp(dtx_path_base_name("dir/"), "") == 0);
+    CHECK(strcmp(dtx_path_base_name(""), "") == 0);
 }
 
 static void test_lock(void)
@@ -179,6 +201,7 @@ static void test_lock(void)
 int main(void)
 {
     test_guard();
+    test_base_name();
     test_lock();
     return check_report();
 }
