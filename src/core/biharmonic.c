@@ -4,6 +4,7 @@
  * the bounded (bbw.c) and the incremental (bbw_incremental.c) weights.
  */
 #include "bbw_internal.h"
+#include "graph.h"
 
 #include <stdlib.h>
 #include <string.h>
@@ -91,31 +92,19 @@ nomem:
                       "vertices", (int)n);
 }
 
-static int32_t find_root(int32_t *parent, int32_t x)
-{
-    while (parent[x] != x) {
-        parent[x] = parent[parent[x]];
-        x = parent[x];
-    }
-    return x;
-}
-
 /* Components over the faces whose three vertices do not all coincide
- * (those contribute nothing to L). */
+ * (those contribute nothing to L); a vertex in none of them gets -1. */
 static dtx_status components(const dtx_mesh *mesh, dtx__biharmonic *sys, dtx_error *err)
 {
     int32_t nv = mesh->nv, *parent = dtx_alloc((size_t)nv, sizeof *parent, 0);
-    int32_t *root_comp = dtx_alloc((size_t)nv, sizeof *root_comp, 0);
-    unsigned char *in_face = dtx_alloc((size_t)nv, 1, 1);
-    int32_t ncomp = 0;
+    int32_t ncomp;
 
     sys->comp = dtx_alloc((size_t)nv, sizeof *sys->comp, 0);
-    if (!parent || !root_comp || !in_face || !sys->comp)
+    if (!parent || !sys->comp)
         goto nomem;
-    for (int32_t i = 0; i < nv; i++) {
-        parent[i] = i;
-        root_comp[i] = -1;
-    }
+    dtx__uf_init(parent, nv);
+    for (int32_t i = 0; i < nv; i++)
+        sys->comp[i] = -1; /* in no face counted (yet) */
     for (int32_t f = 0; f < mesh->nf; f++) {
         const int32_t *t = mesh->F + 3 * (size_t)f;
         const double *a = mesh->V + 3 * (size_t)t[0], *b = mesh->V + 3 * (size_t)t[1],
@@ -123,23 +112,11 @@ static dtx_status components(const dtx_mesh *mesh, dtx__biharmonic *sys, dtx_err
         if (memcmp(a, b, 3 * sizeof *a) == 0 && memcmp(a, c, 3 * sizeof *a) == 0)
             continue;
         for (int k = 0; k < 3; k++) {
-            int32_t r0 = find_root(parent, t[k]), r1 = find_root(parent, t[(k + 1) % 3]);
-            in_face[t[k]] = 1;
-            if (r0 != r1)
-                parent[r0 < r1 ? r1 : r0] = r0 < r1 ? r0 : r1;
+            dtx__uf_union(parent, t[k], t[(k + 1) % 3]);
+            sys->comp[t[k]] = 0; /* in a face counted: numbered below */
         }
     }
-    for (int32_t i = 0; i < nv; i++) {
-        int32_t r;
-        if (!in_face[i]) {
-            sys->comp[i] = -1;
-            continue;
-        }
-        r = find_root(parent, i);
-        if (root_comp[r] < 0)
-            root_comp[r] = ncomp++;
-        sys->comp[i] = root_comp[r];
-    }
+    ncomp = dtx__uf_label(parent, nv, sys->comp, NULL);
     sys->ncomp = ncomp;
     sys->lowest = dtx_alloc((size_t)ncomp, sizeof *sys->lowest, 0);
     if (!sys->lowest)
@@ -150,14 +127,10 @@ static dtx_status components(const dtx_mesh *mesh, dtx__biharmonic *sys, dtx_err
         if (sys->comp[i] >= 0 && sys->lowest[sys->comp[i]] < 0)
             sys->lowest[sys->comp[i]] = i;
     free(parent);
-    free(root_comp);
-    free(in_face);
     return DTX_OK;
 
 nomem:
     free(parent);
-    free(root_comp);
-    free(in_face);
     return dtx_seterr(err, DTX_ENOMEM, "out of memory labelling the components of %d vertices",
                       (int)nv);
 }

@@ -1,6 +1,8 @@
 /* mesh.c: allocation, validation and simple queries on dtx_mesh. */
 #include "mesh.h"
 
+#include "graph.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -73,45 +75,9 @@ dtx_status dtx_mesh_validate(const dtx_mesh *m, const char *what, dtx_error *err
     return DTX_OK;
 }
 
-static int32_t find_root(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i) {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    return i;
-}
-
 int32_t dtx_mesh_components(const dtx_mesh *m, int32_t *comp)
 {
-    int32_t *parent = dtx_alloc((size_t)m->nv, sizeof *parent, 0);
-    int32_t *label = dtx_alloc((size_t)m->nv, sizeof *label, 0);
-    int32_t n = 0;
-    if (!parent || !label) {
-        free(parent);
-        free(label);
-        return -1;
-    }
-    for (int32_t i = 0; i < m->nv; i++)
-        parent[i] = i;
-    for (int32_t f = 0; f < m->nf; f++)
-        for (int k = 0; k < 2; k++) {
-            int32_t a = find_root(parent, m->F[3 * f + k]);
-            int32_t b = find_root(parent, m->F[3 * f + k + 1]);
-            if (a != b)
-                parent[a > b ? a : b] = a > b ? b : a;
-        }
-    for (int32_t i = 0; i < m->nv; i++)
-        label[i] = -1;
-    for (int32_t i = 0; i < m->nv; i++) {
-        int32_t r = find_root(parent, i);
-        if (label[r] < 0)
-            label[r] = n++;
-        comp[i] = label[r];
-    }
-    free(parent);
-    free(label);
-    return n;
+    return dtx__tri_components(m->F, m->nf, m->nv, DTX__ISOLATED_OWN, comp);
 }
 
 int32_t dtx_mesh_count_unreferenced(const dtx_mesh *m)

@@ -38,6 +38,8 @@
  */
 #include "proximity.h"
 
+#include "graph.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -78,15 +80,6 @@ static inline double dist2(const double *p, const double *q)
  * of sqrt: sqrt(d2) <= r implies d2 <= search2(r). */
 static inline double search2(double r) { return r * r * (1.0 + 1e-12); }
 
-static int32_t uf_find(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i) {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    return i;
-}
-
 /* ------------------------------------------------------------------ */
 /* Input checks and components                                         */
 /* ------------------------------------------------------------------ */
@@ -113,51 +106,6 @@ static dtx_status check_mesh(const dtx_mesh *m, dtx_error *err)
                                   (int)v, (int)f);
         }
     return DTX_OK;
-}
-
-/* comp: nv (output), -1 for a vertex in no face, else numbered in order of
- * the lowest vertex.  Returns the component count, or -1 when out of
- * memory. */
-static int32_t label_components(const dtx_mesh *m, int32_t *comp)
-{
-    int32_t *parent = dtx_alloc((size_t)m->nv, sizeof *parent, 0);
-    int32_t *label = dtx_alloc((size_t)m->nv, sizeof *label, 0);
-    int32_t n = 0;
-    if (!parent || !label) {
-        free(parent);
-        free(label);
-        return -1;
-    }
-    for (int32_t v = 0; v < m->nv; v++) {
-        parent[v] = v;
-        label[v] = -1;
-        comp[v] = -1;
-    }
-    for (int32_t f = 0; f < m->nf; f++)
-        for (int k = 0; k < 3; k++) {
-            int32_t a = uf_find(parent, m->F[3 * f + k]);
-            int32_t b = uf_find(parent, m->F[3 * f + (k + 1) % 3]);
-            if (a != b)
-                parent[a > b ? a : b] = a > b ? b : a;
-            label[m->F[3 * f + k]] = 0; /* in a face */
-        }
-    for (int32_t v = 0; v < m->nv; v++)
-        if (label[v] == 0)
-            comp[v] = -2; /* in a face, not yet numbered */
-    for (int32_t v = 0; v < m->nv; v++)
-        label[v] = -1;
-    for (int32_t v = 0; v < m->nv; v++) {
-        int32_t r;
-        if (comp[v] == -1)
-            continue;
-        r = uf_find(parent, v);
-        if (label[r] < 0)
-            label[r] = n++;
-        comp[v] = label[r];
-    }
-    free(parent);
-    free(label);
-    return n;
 }
 
 /* eps[c] = eps_factor x the longest edge of component c. */
@@ -418,8 +366,7 @@ static int32_t mst_boruvka(const kd_tree *t, int32_t ncomp, int32_t *tree, doubl
         ntree = -1;
         goto done;
     }
-    for (int32_t c = 0; c < ncomp; c++)
-        parent[c] = c;
+    dtx__uf_init(parent, ncomp);
     for (int32_t q = 0; q < n; q++) {
         pcl[q] = t->comp[q];
         nnq[q] = -1;
@@ -493,14 +440,8 @@ static int32_t mst_boruvka(const kd_tree *t, int32_t ncomp, int32_t *tree, doubl
 
         /* Merge along them; two clusters may have chosen the same edge. */
         for (int32_t c = 0; c < ncomp; c++) {
-            int32_t ra, rb;
-            if (clo[c] < 0)
+            if (clo[c] < 0 || !dtx__uf_union(parent, clo[c], chi[c]))
                 continue;
-            ra = uf_find(parent, clo[c]);
-            rb = uf_find(parent, chi[c]);
-            if (ra == rb)
-                continue;
-            parent[ra > rb ? ra : rb] = ra > rb ? rb : ra;
             tree[2 * ntree] = clo[c];
             tree[2 * ntree + 1] = chi[c];
             tree_d2[ntree++] = cd2[c];
@@ -510,7 +451,7 @@ static int32_t mst_boruvka(const kd_tree *t, int32_t ncomp, int32_t *tree, doubl
             break; /* unreachable: every cluster has an outgoing edge */
         ncl -= merged;
         for (int32_t q = 0; q < n; q++)
-            pcl[q] = uf_find(parent, t->comp[q]);
+            pcl[q] = dtx__uf_find(parent, t->comp[q]);
     }
 done:
     free(parent);
@@ -894,7 +835,7 @@ dtx_status dtx_proximity_build(const dtx_mesh *m, double eps_factor, dtx_proximi
     /* ---- Components and their eps. */
     if (!(out->comp = dtx_alloc((size_t)m->nv, sizeof *out->comp, 0)))
         goto nomem;
-    if ((ncomp = label_components(m, out->comp)) < 0)
+    if ((ncomp = dtx__tri_components(m->F, m->nf, m->nv, DTX__ISOLATED_UNLABELLED, out->comp)) < 0)
         goto nomem;
     out->ncomp = ncomp;
     if (!(out->eps = dtx_alloc((size_t)ncomp, sizeof *out->eps, 0)))

@@ -1,6 +1,8 @@
 /* weld.c: the weld map of seam-split vertices (weld.h). */
 #include "weld.h"
 
+#include "graph.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,26 +23,6 @@ static int cmp_xkey(const void *a, const void *b)
     if (p->x > q->x)
         return 1;
     return (p->i > q->i) - (p->i < q->i);
-}
-
-/* Union-find whose root is the lowest index of its class. */
-static int32_t find(int32_t *parent, int32_t i)
-{
-    while (parent[i] != i) {
-        parent[i] = parent[parent[i]];
-        i = parent[i];
-    }
-    return i;
-}
-
-static void unite(int32_t *parent, int32_t a, int32_t b)
-{
-    a = find(parent, a);
-    b = find(parent, b);
-    if (a < b)
-        parent[b] = a;
-    else if (b < a)
-        parent[a] = b;
 }
 
 static int twins(const double *p, const double *q, double tol)
@@ -74,8 +56,9 @@ dtx_status dtx_weld_map(const double *V, int32_t nv, double tol, int32_t *map, i
     }
     /* Sweep along x: only vertices within tol in x can be twins.  Vertices
      * with a non-finite coordinate take no part. */
+    dtx__uf_init(parent, nv);
     for (int32_t i = 0; i < nv; i++) {
-        parent[i] = i;
+        map[i] = 0; /* every vertex is in a class, if only its own */
         if (isfinite(V[3 * (size_t)i]) && isfinite(V[3 * (size_t)i + 1]) &&
             isfinite(V[3 * (size_t)i + 2])) {
             keys[n].x = V[3 * (size_t)i];
@@ -87,17 +70,10 @@ dtx_status dtx_weld_map(const double *V, int32_t nv, double tol, int32_t *map, i
     for (int32_t a = 0; a < n; a++)
         for (int32_t b = a + 1; b < n && keys[b].x - keys[a].x <= tol; b++)
             if (twins(V + 3 * (size_t)keys[a].i, V + 3 * (size_t)keys[b].i, tol))
-                unite(parent, keys[a].i, keys[b].i);
-    /* Number the classes in order of their lowest index (the root). */
-    for (int32_t i = 0; i < nv; i++) {
-        int32_t root = find(parent, i);
-        if (root == i) {
-            rep[m] = i;
-            map[i] = m++;
-        } else {
-            map[i] = map[root]; /* root < i: already numbered */
-        }
-    }
+                dtx__uf_union(parent, keys[a].i, keys[b].i);
+    /* Number the classes in order of their lowest index; rep[w] is that
+     * index. */
+    m = dtx__uf_label(parent, nv, map, rep);
     free(keys);
     free(parent);
     *nw = m;
