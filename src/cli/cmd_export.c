@@ -23,6 +23,7 @@
  */
 #include "cmd_export.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "glb_materials.h"
@@ -70,19 +71,6 @@ typedef struct {
     double fps;     /* frames per second: --fps, else the item's, else 24 */
     int fps_stored; /* the item stores its frame rate */
 } frame_source;
-
-static int usage(const char *msg)
-{
-    fprintf(stderr, "dtx: %s\n", msg);
-    dtx_cli_print_usage(stderr, dtx_cli_find_name("export"));
-    return 2;
-}
-
-static int fail(const dtx_error *err)
-{
-    fprintf(stderr, "dtx: error: %s\n", err->msg);
-    return 1;
-}
 
 /* ------------------------------------------------------------------ */
 /* Arguments                                                           */
@@ -621,7 +609,7 @@ int dtx_cmd_export(int argc, char **argv)
     double *X = NULL;
     int new_rest, new_pc2, new_glb;
     if (msg)
-        return usage(msg);
+        return dtx_cli_usage(dtx_cli_find_name("export"), msg);
     memset(&s, 0, sizeof s);
     memset(&mesh, 0, sizeof mesh);
     s.stride = a.stride;
@@ -695,5 +683,5 @@ int dtx_cmd_export(int argc, char **argv)
     dtx_mesh_free(&mesh);
     source_close(&s);
     dtx_h5_close(&f, NULL);
-    return st == DTX_OK ? 0 : fail(&err);
+    return st == DTX_OK ? 0 : dtx_cli_fail(&err);
 }

@@ -11,7 +11,9 @@
  * this run are removed.
  */
 #include "cmd_generate.h"
+#include "cmd_uvsplit.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "atomic_file.h"
@@ -224,12 +226,6 @@ static int parse_args(int argc, char **argv, gen_args *g)
     return 0;
 }
 
-static void print_warning(void *ctx, const char *msg)
-{
-    (void)ctx;
-    fprintf(stderr, "dtx: warning: %s\n", msg);
-}
-
 /* Writes a label for the marker CSV, quoted when it would not read back. */
 static void write_label(FILE *fp, const char *s)
 {
@@ -381,7 +377,7 @@ int dtx_cmd_generate(int argc, char **argv)
     dtx_mesh in, out;
     dtx_markers mk;
     dtx_error err;
-    dtx_warner w = {print_warning, NULL};
+    dtx_warner w = {dtx_cli_print_warning, NULL};
     int32_t *map = NULL, *tgt = NULL, ncomp = -1, *comp = NULL;
     const char *mp, *mkpath, *mo;
     char what[256], comment[1024];

@@ -11,10 +11,4 @@
  * left behind), 2 on a usage error (nothing is read or written). */
 int dtx_cmd_generate(int argc, char **argv);
 
-/* `dtx generate uvsplit IN OUT.obj [--materials 1|2]` (cmd_uvsplit.c):
- * IN split as an export splits it along a cylindrical UV seam and, with 2
- * materials (the default), where they meet (core/uvsplit.h); OUT.obj gets
- * v, vt, vn, usemtl and an mtllib line naming OUT.mtl, written beside it. */
-int dtx_cmd_generate_uvsplit(int argc, char **argv);
-
 #endif /* DTX_CMD_GENERATE_H */

@@ -10,6 +10,7 @@
  */
 #include "cmd_inspect.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "file_util.h"
@@ -25,13 +26,6 @@
 
 /* Longest attribute value shown in full in the text output. */
 #define SHOW_MAX 100
-
-static int usage(const char *msg)
-{
-    fprintf(stderr, "dtx: %s\n", msg);
-    dtx_cli_print_usage(stderr, dtx_cli_find_name("inspect"));
-    return 2;
-}
 
 /* Attributes every object of a kind has and that the text output shows in
  * its own words; the others are listed as "name: value". */
@@ -471,18 +465,16 @@ int dtx_cmd_inspect(int argc, char **argv)
         else if (argv[i][0] == '-' && argv[i][1] != '\0') {
             char m[256];
             snprintf(m, sizeof m, "inspect: unknown option %.200s", argv[i]);
-            return usage(m);
+            return dtx_cli_usage(dtx_cli_find_name("inspect"), m);
         } else if (file)
-            return usage("inspect takes one file");
+            return dtx_cli_usage(dtx_cli_find_name("inspect"), "inspect takes one file");
         else
             file = argv[i];
     }
     if (!file)
-        return usage("inspect needs a file");
-    if (dtx_h5_inspect(file, &s, &err) != DTX_OK) {
-        fprintf(stderr, "dtx: error: %s\n", err.msg);
-        return 1;
-    }
+        return dtx_cli_usage(dtx_cli_find_name("inspect"), "inspect needs a file");
+    if (dtx_h5_inspect(file, &s, &err) != DTX_OK)
+        return dtx_cli_fail(&err);
     run = read_run_summary(file, run_path, sizeof run_path);
     if (as_json) {
         if (print_json(stdout, file, &s, run) != 0) {

@@ -19,6 +19,7 @@
  */
 #include "cmd_keypoints.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "atomic_file.h"
@@ -555,7 +556,7 @@ int dtx_cmd_keypoints(int argc, char **argv)
     dtx_status st;
     const char *why;
     char buf[512];
-    int rank = 0, provided, stuck;
+    int rank = 0, provided;
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     if ((why = parse_args(argc, argv, &a, buf, sizeof buf)) != NULL) {
@@ -569,17 +570,11 @@ int dtx_cmd_keypoints(int argc, char **argv)
     err.msg[0] = '\0';
     st = run(&a, MPI_COMM_WORLD, &s, &err);
     if (st != DTX_OK && rank == 0)
-        fprintf(stderr, "dtx: error: %s\n", err.msg);
+        dtx_cli_fail(&err);
     dtx_kp_result_free(&s.kp);
     dtx_markers_free(&s.mk);
     dtx_mesh_free(&s.src);
     dtx_mesh_free(&s.tgt);
     free(s.X);
-    stuck = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0;
-    MPI_Finalize();
-    if (stuck) {
-        fflush(NULL);
-        _exit(st == DTX_OK ? 0 : 1);
-    }
-    return st == DTX_OK ? 0 : 1;
+    return dtx_cli_mpi_finish(st);
 }

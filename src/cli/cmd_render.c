@@ -11,6 +11,7 @@
  */
 #include "cmd_render.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "file_util.h"
@@ -72,24 +73,11 @@ typedef struct {
 /* Drawn frames that are not what they should be: their label says so. */
 enum { MARK_OK, MARK_NONFINITE, MARK_NOT_DONE };
 
-static int usage(const char *msg)
-{
-    fprintf(stderr, "dtx: %s\n", msg);
-    dtx_cli_print_usage(stderr, dtx_cli_find_name("render"));
-    return 2;
-}
-
-static int fail(const dtx_error *err)
-{
-    fprintf(stderr, "dtx: error: %s\n", err->msg);
-    return 1;
-}
-
-/* fail() or, for dtx_render_sheet, the error kept in a->capture. */
+/* dtx_cli_fail() or, for dtx_render_sheet, the error kept in a->capture. */
 static int fail_or_keep(const render_args *a, const dtx_error *err)
 {
     if (!a->capture)
-        return fail(err);
+        return dtx_cli_fail(err);
     *a->capture = *err;
     return 1;
 }
@@ -97,15 +85,9 @@ static int fail_or_keep(const render_args *a, const dtx_error *err)
 static int usage_or_keep(const render_args *a, const char *msg)
 {
     if (!a->capture)
-        return usage(msg);
+        return dtx_cli_usage(dtx_cli_find_name("render"), msg);
     dtx_seterr(a->capture, DTX_EINVAL, "%s", msg);
     return 2;
-}
-
-static void print_warning(void *ctx, const char *msg)
-{
-    (void)ctx;
-    fprintf(stderr, "dtx: warning: %s\n", msg);
 }
 
 /* ------------------------------------------------------------------ */
@@ -623,7 +605,7 @@ static dtx_status load_row(const frame_source *s, const int64_t *sel, int nsel,
                  "that touch a non-finite vertex left out",
                  r->where, (long long)nbad, (long long)s->nframes, (long long)bad_f,
                  (long long)bad_v, list);
-        print_warning(NULL, w);
+        dtx_cli_print_warning(NULL, w);
     }
     if (st == DTX_OK && nundone > 0) {
         marked_list(r, sel, nsel, MARK_NOT_DONE, list, sizeof list);
@@ -631,7 +613,7 @@ static dtx_status load_row(const frame_source *s, const int64_t *sel, int nsel,
                  "%s: %lld of %lld frames are not done (first: frame %lld), their positions "
                  "undefined; drawn frames among them: %s, left empty and labelled NOT DONE",
                  r->where, (long long)nundone, (long long)s->nframes, (long long)undone_f, list);
-        print_warning(NULL, w);
+        dtx_cli_print_warning(NULL, w);
     }
     free(buf);
     free(done);
@@ -755,7 +737,7 @@ done:
 static int render_mesh_file(const render_args *a, dtx_render_opts *o)
 {
     dtx_error err;
-    dtx_warner w = {print_warning, NULL};
+    dtx_warner w = {dtx_cli_print_warning, NULL};
     row r;
     int64_t sel = 0;
     dtx_status st;

@@ -13,6 +13,7 @@
  */
 #include "cmd_report.h"
 
+#include "cli_util.h"
 #include "options.h"
 
 #include "atomic_file.h"
@@ -41,19 +42,6 @@ typedef struct {
     const char *input, *out, *summary, *count;
     int no_pictures;
 } report_args;
-
-static int usage(const char *msg)
-{
-    fprintf(stderr, "dtx: %s\n", msg);
-    dtx_cli_print_usage(stderr, dtx_cli_find_name("report"));
-    return 2;
-}
-
-static int fail(const dtx_error *err)
-{
-    fprintf(stderr, "dtx: error: %s\n", err->msg);
-    return 1;
-}
 
 static const char *parse_args(int argc, char **argv, report_args *a)
 {
@@ -537,16 +525,16 @@ int dtx_cmd_report(int argc, char **argv)
     size_t md_n = 0;
 
     if ((msg = parse_args(argc, argv, &a)) != NULL)
-        return usage(msg);
+        return dtx_cli_usage(dtx_cli_find_name("report"), msg);
     html = a.out && strlen(a.out) > 5 && strcmp(a.out + strlen(a.out) - 5, ".html") == 0;
     if (html)
         a.no_pictures = 1;
     if (a.out)
         snprintf(out, sizeof out, "%s", a.out);
     else if (derive(a.input, ".report.md", out, sizeof out) != 0)
-        return usage("report: the file name is too long");
+        return dtx_cli_usage(dtx_cli_find_name("report"), "report: the file name is too long");
     if ((size_t)snprintf(sum_path, sizeof sum_path, "%s.summary.json", a.input) >= sizeof sum_path)
-        return usage("report: the file name is too long");
+        return dtx_cli_usage(dtx_cli_find_name("report"), "report: the file name is too long");
     if (a.summary)
         snprintf(sum_path, sizeof sum_path, "%s", a.summary);
     {
@@ -555,7 +543,8 @@ int dtx_cmd_report(int argc, char **argv)
             len -= 3;
         if ((size_t)snprintf(pic_dir, sizeof pic_dir, "%.*s-pictures", (int)len, out) >=
             sizeof pic_dir)
-            return usage("report: the report name is too long");
+            return dtx_cli_usage(dtx_cli_find_name("report"),
+                                 "report: the report name is too long");
     }
     pic_link = dtx_path_base_name(pic_dir);
     {
@@ -574,7 +563,7 @@ int dtx_cmd_report(int argc, char **argv)
         if (st == DTX_OK)
             st = dtx_output_path_check(out, "the report page", &err);
         if (st != DTX_OK)
-            return fail(&err);
+            return dtx_cli_fail(&err);
     }
 
     found = dtx_alloc(RESULTS_MAX, sizeof *found, 0);
@@ -640,5 +629,5 @@ done:
     cJSON_Delete(sum);
     free(found);
     dtx_h5_close(&h, NULL);
-    return st == DTX_OK ? 0 : fail(&err);
+    return st == DTX_OK ? 0 : dtx_cli_fail(&err);
 }

@@ -1,9 +1,14 @@
-/* cmd_uvsplit.c: `dtx generate uvsplit`, an asset split along a UV seam and
- * a material boundary, written as OBJ with vt, vn, usemtl and mtllib. */
-#include "atomic_file.h"
-#include "cmd_generate.h"
-#include "meshfile.h"
+/*
+ * cmd_uvsplit.c: `dtx generate uvsplit`, an asset split along a UV seam and
+ * a material boundary, written as OBJ with vt, vn, usemtl and mtllib.
+ */
+#include "cmd_uvsplit.h"
+
+#include "cli_util.h"
 #include "options.h"
+
+#include "atomic_file.h"
+#include "meshfile.h"
 #include "uvsplit.h"
 
 #include <stdio.h>
@@ -15,12 +20,6 @@ static int uv_usage(const char *msg)
     fprintf(stderr, "dtx: generate: %s\n", msg);
     dtx_cli_print_usage(stderr, dtx_cli_find_name("generate"));
     return 2;
-}
-
-static void warn(void *ctx, const char *msg)
-{
-    (void)ctx;
-    fprintf(stderr, "dtx: warning: %s\n", msg);
 }
 
 /* OUT.obj -> OUT.mtl (path) and its base name (for the mtllib line). */
@@ -46,7 +45,7 @@ int dtx_cmd_generate_uvsplit(int argc, char **argv)
     dtx_uvsplit s;
     dtx_mesh_attrs a;
     dtx_error err;
-    dtx_warner w = {warn, NULL};
+    dtx_warner w = {dtx_cli_print_warning, NULL};
     char *names[2] = {"dtx_lower", "dtx_upper"};
     dtx_status st;
     dtx_atomic_file af;
@@ -119,8 +118,7 @@ int dtx_cmd_generate_uvsplit(int argc, char **argv)
     dtx_mesh_free(&m);
     return 0;
 fail:
-    fprintf(stderr, "dtx: error: %s\n", err.msg);
     dtx_uvsplit_free(&s);
     dtx_mesh_free(&m);
-    return 1;
+    return dtx_cli_fail(&err);
 }

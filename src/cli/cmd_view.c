@@ -13,6 +13,8 @@
  */
 #include "cmd_view.h"
 
+#include "cli_util.h"
+
 #include "h5layout.h"
 #include "html_view.h"
 #include "options.h"
@@ -550,9 +552,5 @@ done:
         dtx_h5_close(&fs.id[i], &e2);
         free(fs.name[i]);
     }
-    if (st != DTX_OK) {
-        fprintf(stderr, "dtx: error: %s\n", err.msg);
-        return 1;
-    }
-    return 0;
+    return st == DTX_OK ? 0 : dtx_cli_fail(&err);
 }

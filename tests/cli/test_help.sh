@@ -33,15 +33,21 @@ for c in "${cmds[@]}"; do
     printf '%s\n' "$out" > "help-${c// /-}.txt"
 done
 
-# Every option literal of a command's source is in its help.  main.c holds
-# the import commands, run, validate and diff; cmd_X.c holds command X.
+# Every option literal of a command's source is in its help.  cmd_X.c holds
+# command X, cmd_import.c the three import commands; cli_util.c knows which
+# options of import and run take a value (and diff's --tol, from when diff
+# was parsed in main.c).
 opts_of() { grep -ohE '"(--[a-z0-9][a-z0-9-]*|-o)"' "$@" | tr -d '"' | sort -u |
             grep -vxE -- '--help|--version'; }
-for src in "$DTX_SRC"/src/cli/cmd_*.c "$DTX_SRC"/src/cli/main.c; do
+for src in "$DTX_SRC"/src/cli/cmd_*.c "$DTX_SRC"/src/cli/cli_util.c "$DTX_SRC"/src/cli/main.c; do
     base=$(basename "$src" .c)
     if [ "$base" = main ]; then
+        helps="overview.txt"  # no options of its own
+    elif [ "$base" = cli_util ]; then
         helps="help-import-mesh.txt help-import-sequence.txt help-import-markers.txt help-run.txt
-               help-validate.txt help-diff.txt"
+               help-diff.txt"
+    elif [ "$base" = cmd_import ]; then
+        helps="help-import-mesh.txt help-import-sequence.txt help-import-markers.txt"
     elif [ "$base" = cmd_uvsplit ]; then
         helps="help-generate.txt"  # dtx generate uvsplit
     else

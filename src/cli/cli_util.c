@@ -1,0 +1,94 @@
+/*
+ * cli_util.c: messages and option lookup shared by the `dtx` commands.
+ */
+#include "cli_util.h"
+
+#include "h5layout.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+int dtx_cli_quiet_rank(void)
+{
+    const char *r = getenv("OMPI_COMM_WORLD_RANK");
+    return r && strcmp(r, "0") != 0;
+}
+
+int dtx_cli_usage(const dtx_cli_cmd *c, const char *msg)
+{
+    if (msg)
+        fprintf(stderr, "dtx: %s\n", msg);
+    if (c)
+        dtx_cli_print_usage(stderr, c);
+    else
+        dtx_cli_print_overview(stderr);
+    return 2;
+}
+
+int dtx_cli_usage_rank0(const dtx_cli_cmd *c, const char *msg)
+{
+    return dtx_cli_quiet_rank() ? 2 : dtx_cli_usage(c, msg);
+}
+
+int dtx_cli_fail(const dtx_error *err)
+{
+    fprintf(stderr, "dtx: error: %s\n", err->msg);
+    return 1;
+}
+
+void dtx_cli_print_warning(void *ctx, const char *msg)
+{
+    (void)ctx;
+    fprintf(stderr, "dtx: warning: %s\n", msg);
+}
+
+int dtx_cli_mpi_finish(dtx_status st)
+{
+    int stuck = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0;
+    MPI_Finalize();
+    if (stuck) {
+        fflush(NULL);
+        _exit(st == DTX_OK ? 0 : 1);
+    }
+    return st == DTX_OK ? 0 : 1;
+}
+
+const char *dtx_cli_opt_value(int argc, char **argv, const char *name)
+{
+    for (int i = 0; i < argc - 1; i++)
+        if (strcmp(argv[i], name) == 0)
+            return argv[i + 1];
+    return NULL;
+}
+
+/* The options of import and run that take a value (and diff's --tol, from
+ * when main.c parsed diff too). */
+static int is_flag_with_value(const char *a)
+{
+    static const char *const names[] = {
+        "-o",        "--name", "--mesh",     "--dtype", "--index-base", "--source", "--target",
+        "--summary", "--tol",  "--compress", "--fps",   "--glob",       "--exclude"};
+    for (size_t i = 0; i < sizeof names / sizeof *names; i++)
+        if (strcmp(a, names[i]) == 0)
+            return 1;
+    return 0;
+}
+
+int dtx_cli_positionals(int argc, char **argv, int from, char **out, int cap)
+{
+    int n = 0;
+    for (int i = from; i < argc; i++) {
+        if (is_flag_with_value(argv[i])) {
+            i++;
+            continue;
+        }
+        if (argv[i][0] == '-' && argv[i][1] == '-')
+            continue;
+        if (n < cap)
+            out[n] = argv[i];
+        n++;
+    }
+    return n;
+}

@@ -1,0 +1,49 @@
+/*
+ * cli_util.h: what several `dtx` commands print the same way (a usage error,
+ * "dtx: error: ...", "dtx: warning: ...") and the simple option lookup of
+ * the import commands and run.  Everything goes to stderr; nothing here
+ * keeps state, so it is as thread-safe as stdio.
+ */
+#ifndef DTX_CLI_UTIL_H
+#define DTX_CLI_UTIL_H
+
+#include "dtx_core.h"
+#include "options.h"
+
+/* 1 on an MPI rank other than 0 (OMPI_COMM_WORLD_RANK set and not "0"):
+ * under mpirun every rank would print the same usage error, so only rank 0
+ * does. */
+int dtx_cli_quiet_rank(void);
+
+/* Prints "dtx: MSG" (nothing when msg is NULL), then the usage of command c,
+ * or the overview of every command when c is NULL, on stderr.  Returns 2,
+ * the exit status of a usage error. */
+int dtx_cli_usage(const dtx_cli_cmd *c, const char *msg);
+
+/* dtx_cli_usage() on rank 0 only (see dtx_cli_quiet_rank); returns 2. */
+int dtx_cli_usage_rank0(const dtx_cli_cmd *c, const char *msg);
+
+/* Prints "dtx: error: " and err->msg on stderr.  Returns 1, the exit status
+ * of an error. */
+int dtx_cli_fail(const dtx_error *err);
+
+/* A dtx_warner callback (ctx unused): prints "dtx: warning: MSG" on stderr. */
+void dtx_cli_print_warning(void *ctx, const char *msg);
+
+/* Ends a command run under MPI (MPI_Finalize) and returns its exit status:
+ * 0 when st is DTX_OK, else 1.  After a failed write (disk full) HDF5 can
+ * still hold a file it could not close, and its exit handler would crash
+ * closing it again after MPI_Finalize: then this leaves at once with
+ * _exit() (stdio flushed), without running exit handlers. */
+int dtx_cli_mpi_finish(dtx_status st);
+
+/* The value following the first argv[i] equal to name, or NULL. */
+const char *dtx_cli_opt_value(int argc, char **argv, const char *name);
+
+/* The positional arguments of argv[from..]: neither an option ("--x"), nor
+ * the value of one of the import and run options that take a value.  Stores
+ * at most cap of them in out and returns how many there are (which may be
+ * more than cap). */
+int dtx_cli_positionals(int argc, char **argv, int from, char **out, int cap);
+
+#endif /* DTX_CLI_UTIL_H */
