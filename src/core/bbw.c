@@ -98,7 +98,7 @@ static void ws_free(thread_ws *w)
 static int ws_alloc(thread_ws *w, int32_t nv)
 {
     memset(w, 0, sizeof *w);
-    dtx__cholmod_start(&w->cc);
+    dtx__bbw_chol_start(&w->cc);
     w->started = 1;
     w->idx = dtx_alloc((size_t)nv, sizeof *w->idx, 0);
     w->fvert = dtx_alloc((size_t)nv, sizeof *w->fvert, 0);
@@ -142,11 +142,9 @@ static dtx_status solve_free(const dtx_csr *Q, int32_t nv, thread_ws *w)
     if (!A)
         return dtx_seterr(&w->err, DTX_ENOMEM, "bounded biharmonic weights: out of memory for "
                           "a %d x %d system", (int)nfree, (int)nfree);
-    L = dtx__factor(A, &w->cc, "bounded biharmonic weights", &w->err);
-    if (!L) {
-        st = w->err.code;
+    st = dtx__bbw_factor(A, "bounded biharmonic weights", &L, &w->cc, &w->err);
+    if (st != DTX_OK)
         goto done;
-    }
     memset(&B, 0, sizeof B);
     B.nrow = B.nzmax = B.d = (size_t)nfree;
     B.ncol = 1;

@@ -110,11 +110,9 @@ static dtx_status hset_build(const dtx__biharmonic *sys, const int32_t *handles,
         A = dtx__block(Q, s->idx, s->fvert, s->nfree, cc);
         if (!A)
             goto nomem;
-        s->L = dtx__factor(A, cc, "biharmonic weights", err);
-        if (!s->L) {
-            st = err ? err->code : DTX_ESOLVE;
+        st = dtx__bbw_factor(A, "biharmonic weights", &s->L, cc, err);
+        if (st != DTX_OK)
             goto fail;
-        }
         /* Column k of B is -Q(f, h_k). */
         B = cholmod_zeros(nf, (size_t)m, CHOLMOD_REAL, cc);
         if (!B)
@@ -178,7 +176,7 @@ dtx_status dtx_bbw_incr_create(const dtx_mesh *mesh, const int32_t *handles, int
         free(ctx);
         return st;
     }
-    dtx__cholmod_start(&ctx->cc);
+    dtx__bbw_chol_start(&ctx->cc);
     st = hset_build(&ctx->sys, handles, m, &ctx->cc, &ctx->s, err);
     if (st != DTX_OK) {
         dtx_bbw_incr_free(&ctx);
@@ -210,7 +208,7 @@ dtx_bbw_work *dtx_bbw_work_new(const dtx_bbw_incr *ctx)
     size_t nv = (size_t)ctx->sys.nv;
     if (!w)
         return NULL;
-    dtx__cholmod_start(&w->cc);
+    dtx__bbw_chol_start(&w->cc);
     w->b = dtx_alloc(nv, sizeof *w->b, 1);
     w->g = dtx_alloc(nv, sizeof *w->g, 1);
     w->coef = dtx_alloc(2 * nv, sizeof *w->coef, 1);

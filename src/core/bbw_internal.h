@@ -15,6 +15,7 @@
 #ifndef DTX_BBW_INTERNAL_H
 #define DTX_BBW_INTERNAL_H
 
+#include "cholmod_util.h"
 #include "laplacian.h"
 #include "mesh.h"
 #include "status.h"
@@ -51,8 +52,13 @@ static inline double dtx__row_dot(const dtx_csr *Q, int32_t i, const double *x)
     return s;
 }
 
-/* cholmod_start with dtx's settings: no printing, simplicial L D L'. */
-void dtx__cholmod_start(cholmod_common *cc);
+/* cholmod_start with the weights' settings (cholmod_util.h): simplicial
+ * L D L' and AMD only; CHOLMOD's default also tries METIS when AMD's fill
+ * is high, which costs more than it saves at these sizes. */
+static inline void dtx__bbw_chol_start(cholmod_common *cc)
+{
+    dtx__chol_start(cc, DTX__CHOL_SIMPLICIAL, DTX__CHOL_ORDER_AMD);
+}
 
 /* The block Q(I, I) of the nfree vertices I = {v : idx[v] >= 0}, numbered
  * idx[v] in increasing vertex order (fvert[k] is the vertex of index k), as
@@ -61,10 +67,11 @@ void dtx__cholmod_start(cholmod_common *cc);
 cholmod_sparse *dtx__block(const dtx_csr *Q, const int32_t *idx, const int32_t *fvert,
                            int32_t nfree, cholmod_common *cc);
 
-/* Analyses and factors A (simplicial L D L').  On failure returns NULL and
- * sets err: DTX_ENOMEM, or DTX_ESOLVE naming `what` when A is not positive
- * definite. */
-cholmod_factor *dtx__factor(cholmod_sparse *A, cholmod_common *cc, const char *what,
-                            dtx_error *err);
+/* Analyses and factors A (a free block, on a dtx__bbw_chol_start common)
+ * into *L.  On failure *L is NULL and err is set (dtx__chol_error):
+ * DTX_ENOMEM, or DTX_ESOLVE when A is not positive definite; the message
+ * starts "WHAT: the N x N biharmonic system", what naming the caller. */
+dtx_status dtx__bbw_factor(cholmod_sparse *A, const char *what, cholmod_factor **L,
+                           cholmod_common *cc, dtx_error *err);
 
 #endif /* DTX_BBW_INTERNAL_H */

@@ -6,6 +6,7 @@
 #include "bbw_internal.h"
 #include "graph.h"
 
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -238,19 +239,6 @@ done:
     return st;
 }
 
-void dtx__cholmod_start(cholmod_common *cc)
-{
-    cholmod_start(cc);
-    cc->print = 0;
-    cc->supernodal = CHOLMOD_SIMPLICIAL;
-    cc->final_ll = 0;
-    /* AMD only: the default also tries METIS when AMD's fill is high, which
-     * costs more than it saves at these sizes. */
-    cc->nmethods = 1;
-    cc->method[0].ordering = CHOLMOD_AMD;
-    cc->postorder = 1;
-}
-
 cholmod_sparse *dtx__block(const dtx_csr *Q, const int32_t *idx, const int32_t *fvert,
                            int32_t nfree, cholmod_common *cc)
 {
@@ -289,27 +277,12 @@ cholmod_sparse *dtx__block(const dtx_csr *Q, const int32_t *idx, const int32_t *
     return A;
 }
 
-cholmod_factor *dtx__factor(cholmod_sparse *A, cholmod_common *cc, const char *what,
-                            dtx_error *err)
+dtx_status dtx__bbw_factor(cholmod_sparse *A, const char *what, cholmod_factor **L,
+                           cholmod_common *cc, dtx_error *err)
 {
-    cholmod_factor *L = cholmod_analyze(A, cc);
-    if (!L) {
-        dtx_seterr(err, DTX_ENOMEM, "%s: out of memory analysing a %d x %d system", what,
-                   (int)A->nrow, (int)A->nrow);
-        return NULL;
-    }
-    if (!cholmod_factorize(A, L, cc) || cc->status != CHOLMOD_OK) {
-        int status = cc->status;
-        cholmod_free_factor(&L, cc);
-        if (status == CHOLMOD_OUT_OF_MEMORY)
-            dtx_seterr(err, DTX_ENOMEM, "%s: out of memory factoring a %d x %d system", what,
-                       (int)A->nrow, (int)A->nrow);
-        else
-            dtx_seterr(err, DTX_ESOLVE,
-                       "%s: the %d x %d biharmonic system could not be factored (CHOLMOD "
-                       "status %d); the mesh may have degenerate triangles",
-                       what, (int)A->nrow, (int)A->nrow, status);
-        return NULL;
-    }
-    return L;
+    char system[160];
+    snprintf(system, sizeof system, "%s: the %d x %d biharmonic system", what, (int)A->nrow,
+             (int)A->nrow);
+    return dtx__chol_analyze_factorize(A, DTX__CHOL_TEAMS, system,
+                                       "; the mesh may have degenerate triangles", L, cc, err);
 }

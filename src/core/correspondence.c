@@ -21,7 +21,7 @@
  * 1 (and, by default, the source is aligned on the markers by a similarity
  * transform), which makes the weights and thresholds scale-invariant.
  */
-#include "cholmod_serial.h"
+#include "cholmod_util.h"
 #include "correspondence_internal.h"
 #include "dtx_core.h"
 
@@ -290,9 +290,9 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     int64_t nadj;
     int32_t nfree = 0;
     double eps_area;
+    char system[64];
 
-    cholmod_start(&cc);
-    cc.print = 0;
+    dtx__chol_start(&cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     freeidx = dtx_alloc((size_t)nvar, sizeof *freeidx, 0);
     fixed = dtx_alloc((size_t)nvar, 3 * sizeof *fixed, 1);
     Vinv = dtx_alloc((size_t)nf, 9 * sizeof *Vinv, 0);
@@ -386,9 +386,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
             diagpos[j] = Kp[j];
         }
     }
-    L = cholmod_analyze(K, &cc);
+    st = dtx__chol_analyze(K, "the correspondence system", &L, &cc, err);
+    if (st != DTX_OK)
+        goto fail;
     B = cholmod_zeros((size_t)nfree, 3, CHOLMOD_REAL, &cc);
-    if (!L || !B)
+    if (!B)
         goto nomem;
 
     for (int phase = 0; phase <= prm->n_closest; phase++) {
@@ -421,13 +423,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                     Bx[(size_t)c * nfree + fv] += wc * cp[3 * (size_t)v + c];
             }
         }
-        if (!dtx__cholmod_factorize_serial(K, L, &cc) || cc.status != CHOLMOD_OK) {
-            st = dtx_seterr(err, DTX_ESOLVE,
-                            "correspondence system could not be factored in phase %d (CHOLMOD "
-                            "status %d); are the markers spread over the whole mesh?",
-                            phase, cc.status);
+        snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
+        st = dtx__chol_factorize(K, DTX__CHOL_NO_TEAMS, system,
+                                 "; are the markers spread over the whole mesh?", L, &cc, err);
+        if (st != DTX_OK)
             goto fail;
-        }
         cholmod_free_dense(&Xs, &cc);
         Xs = cholmod_solve(CHOLMOD_A, L, B, &cc);
         if (!Xs)

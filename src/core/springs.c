@@ -42,7 +42,7 @@
  * rotation, and the identity for degenerate data.
  */
 #include "springs.h"
-#include "cholmod_serial.h"
+#include "cholmod_util.h"
 #include "coarsen.h"
 #include "vec3.h"
 
@@ -772,15 +772,7 @@ static dtx_status level_pattern(level *L, double damping, cholmod_common *cc, dt
     if (nf == 0)
         return DTX_OK;
     hessian_view(L, NULL, &A);
-    L->L = cholmod_analyze(&A, cc);
-    if (!L->L || cc->status < CHOLMOD_OK) {
-        if (cc->status == CHOLMOD_OUT_OF_MEMORY)
-            return dtx_seterr(err, DTX_ENOMEM, "out of memory analysing the springs Hessian");
-        return dtx_seterr(err, DTX_ESOLVE,
-                          "the springs Hessian could not be analysed (CHOLMOD status %d)",
-                          cc->status);
-    }
-    return DTX_OK;
+    return dtx__chol_analyze(&A, "the springs Hessian", &L->L, cc, err);
 
 nomem:
     free(be);
@@ -1129,8 +1121,7 @@ dtx_status dtx_springs_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, con
     p = calloc(1, sizeof *p);
     if (!p)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
-    cholmod_start(&p->cc);
-    p->cc.print = 0;
+    dtx__chol_start(&p->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     p->nv_s = src->nv;
     p->nf_s = src->nf;
     p->nv_t = tgt->nv;
@@ -1287,12 +1278,13 @@ static void assemble(const level *L, const double *rtil, const double *x, int pr
             Hx[L->colp[3 * f + b + 1] - 1] += L->mu;
 }
 
-/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_serial.h).
- * Returns 1 when L is a complete factor. */
-static int factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc)
+/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
+ * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
+ * Newton retries and reports a failed frame itself, so no message. */
+static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc)
 {
-    int ok = dtx__cholmod_factorize_serial(A, L, cc);
-    return ok && cc->status >= CHOLMOD_OK && L->minor == L->n;
+    return dtx__chol_factorize(A, DTX__CHOL_NO_TEAMS, "the springs Newton system", NULL, L, cc,
+                               NULL);
 }
 
 /* Newton switches to the exact Hessian after a full step that moved no
@@ -1332,7 +1324,8 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
         double gmax = 0.0, dmax2 = 0.0, slope = 0.0, alpha = 1.0, et = e;
         const double *dx;
         double *b = lw->B->x;
-        int ok = 0, accepted = 0;
+        dtx_status fst;
+        int accepted = 0;
         assemble(L, lw->rtil, lw->x, !exact, lw->g, lw->Hx);
         for (size_t i = 0; i < n3; i++)
             gmax = fmax(gmax, fabs(lw->g[i]));
@@ -1340,24 +1333,23 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
             res->converged = 1;
             break;
         }
-        ok = factorize(&A, lw->L, cc);
-        if (!ok && exact && cc->status != CHOLMOD_OUT_OF_MEMORY) {
+        fst = factorize(&A, lw->L, cc);
+        if (fst == DTX_ESOLVE && exact) {
             /* The exact Hessian is not positive definite here: back to the
              * projected one. */
             exact = 0;
             assemble(L, lw->rtil, lw->x, 1, lw->g, lw->Hx);
-            ok = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc);
         }
         /* The projected H + mu I is positive definite in exact arithmetic;
          * should rounding say otherwise, a larger mu is tried. */
-        for (int attempt = 1; attempt < 4 && !ok && cc->status != CHOLMOD_OUT_OF_MEMORY;
-             attempt++) {
+        for (int attempt = 1; attempt < 4 && fst == DTX_ESOLVE; attempt++) {
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += 100.0 * L->mu * attempt;
-            ok = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc);
         }
-        if (!ok) {
+        if (fst != DTX_OK) {
             res->failed = 1;
             return;
         }
@@ -1446,8 +1438,7 @@ static dtx_status ensure_workers(dtx_springs_plan *p, dtx_error *err)
     p->nworkers = n;
     for (int w = 0; w < n; w++) {
         worker *k = &p->workers[w];
-        cholmod_start(&k->cc);
-        k->cc.print = 0;
+        dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
         k->rot = dtx_alloc((size_t)p->max_level_n, 9 * sizeof *k->rot, 0);
         if (!k->rot)
             goto nomem;
@@ -1582,7 +1573,7 @@ static int linear_start(const level *L, level_work *lw, const double *rot, const
         }
     }
     hessian_view(L, lw->Hx, &A);
-    if (!factorize(&A, lw->L, cc) ||
+    if (factorize(&A, lw->L, cc) != DTX_OK ||
         !cholmod_solve2(CHOLMOD_A, lw->L, lw->B, NULL, &lw->X, NULL, &lw->Y, &lw->E, cc))
         return 0;
     sol = lw->X->x;

@@ -74,6 +74,7 @@
  * centroid is the rest centroid (or follows the source's centroid).  Every
  * frame starts from the rest pose.
  */
+#include "cholmod_util.h"
 #include "dtx_core.h"
 #include "proximity.h"
 #include "vec3.h"
@@ -617,16 +618,12 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     p = calloc(1, sizeof *p);
     if (!p)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the transfer plan");
-    cholmod_start(&p->cc);
-    p->cc.print = 0;
-    p->cc.supernodal = CHOLMOD_SIMPLICIAL;
-    /* Nested dissection (METIS): every iteration of every frame is a
-     * back-substitution, bound by the factor's size, and on the 59,000-
-     * vertex pebble camel the factor is 18% smaller than with AMD (3.57 M
-     * entries against 4.35 M): 7-9% faster frames for 0.5 s more
-     * analysis. */
-    p->cc.nmethods = 1;
-    p->cc.method[0].ordering = CHOLMOD_NESDIS;
+    /* Simplicial L D L' with nested dissection (METIS) only: every
+     * iteration of every frame is a back-substitution, bound by the
+     * factor's size, and on the 59,000-vertex pebble camel the factor is
+     * 18% smaller than with AMD (3.57 M entries against 4.35 M): 7-9%
+     * faster frames for 0.5 s more analysis. */
+    dtx__chol_start(&p->cc, DTX__CHOL_SIMPLICIAL, DTX__CHOL_ORDER_NESDIS);
     p->nv_s = src->nv;
     p->nf_s = src->nf;
     p->nv_t = nv;
@@ -813,17 +810,12 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
         goto nomem;
 
     t0 = now_seconds();
-    p->L = cholmod_analyze(K, &p->cc);
-    if (!p->L)
-        goto nomem;
-    if (!cholmod_factorize(K, p->L, &p->cc) || p->cc.status != CHOLMOD_OK) {
-        st = dtx_seterr(err, DTX_ESOLVE,
-                        "the multicomponent transfer system could not be factored (CHOLMOD "
-                        "status %d): some vertex is reached by no term (a component with "
-                        "neither pairs, proximity pairs nor orphan terms?)",
-                        p->cc.status);
+    st = dtx__chol_analyze_factorize(K, DTX__CHOL_TEAMS, "the multicomponent transfer system",
+                                     ": some vertex is reached by no term (a component with "
+                                     "neither pairs, proximity pairs nor orphan terms?)",
+                                     &p->L, &p->cc, err);
+    if (st != DTX_OK)
         goto fail;
-    }
     p->factor_seconds = now_seconds() - t0;
     p->info.factor_seconds = p->factor_seconds;
     cholmod_free_sparse(&K, &p->cc);
@@ -877,8 +869,7 @@ static dtx_status ensure_workers(dtx_mc_plan *p, dtx_error *err)
     for (int w = 0; w < n; w++) {
         mc_worker *k = &p->workers[w];
         mc_frame *fr = &k->fr;
-        cholmod_start(&k->cc);
-        k->cc.print = 0;
+        dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
         k->B = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
         fr->S = dtx_alloc((size_t)p->nf_s, 9 * sizeof *fr->S, 0);
         fr->Sp = dtx_alloc((size_t)p->npairs, 9 * sizeof *fr->Sp, 0);

@@ -50,6 +50,7 @@
  * does not depend on its lane, on the thread count, on the kernel variant
  * or on how the calls split the sequence.
  */
+#include "cholmod_util.h"
 #include "dtx_core.h"
 #include "vec3.h"
 
@@ -666,8 +667,7 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     p = calloc(1, sizeof *p);
     if (!p)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the transfer plan");
-    cholmod_start(&p->cc);
-    p->cc.print = 0;
+    dtx__chol_start(&p->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     p->nv_s = src->nv;
     p->nv_t = nv;
     p->anchor = anchor;
@@ -787,17 +787,12 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
         goto fail;
 
     t0 = now_seconds();
-    p->L = cholmod_analyze(K, &p->cc);
-    if (!p->L)
-        goto nomem;
-    if (!cholmod_factorize(K, p->L, &p->cc) || p->cc.status != CHOLMOD_OK) {
-        st = dtx_seterr(err, DTX_ESOLVE,
-                        "the transfer system could not be factored (CHOLMOD status %d): the "
-                        "target may have degenerate triangles only, or a vertex no pair "
-                        "reaches",
-                        p->cc.status);
+    st = dtx__chol_analyze_factorize(K, DTX__CHOL_TEAMS, "the transfer system",
+                                     ": the target may have degenerate triangles only, or a "
+                                     "vertex no pair reaches",
+                                     &p->L, &p->cc, err);
+    if (st != DTX_OK)
         goto fail;
-    }
     p->factor_seconds = now_seconds() - t0;
     st = number_bg_rows(p, err);
     if (st != DTX_OK)
@@ -1274,8 +1269,7 @@ double dtx_sp04_plan_bare_solve_seconds_group(dtx_sp04_plan *p, int frames_per_s
     double t0, t;
     if (frames_per_solve < 1)
         return -1.0;
-    cholmod_start(&cc);
-    cc.print = 0;
+    dtx__chol_start(&cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     B = cholmod_ones((size_t)p->nfree, 3 * (size_t)frames_per_solve, CHOLMOD_REAL, &cc);
     if (!B) {
         cholmod_finish(&cc);

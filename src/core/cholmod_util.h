@@ -1,0 +1,103 @@
+/*
+ * cholmod_util.h: how the core library drives CHOLMOD (internal to the core
+ * library): one place for the common's settings, the symbolic analysis, the
+ * numeric factorisation and the mapping of CHOLMOD's failures to a
+ * dtx_status with a message naming the caller's system.
+ *
+ * Every caller owns its cholmod_common (one per concurrent caller) and its
+ * factors; solves stay with the callers (cholmod_solve2 with workspace they
+ * keep across frames).
+ *
+ * Factorising without CHOLMOD's own OpenMP teams (DTX__CHOL_NO_TEAMS).
+ * CHOLMOD's supernodal factorisation runs some of its loops on OpenMP
+ * teams of a size fixed when it was built (4 in Debian's), whatever
+ * OMP_NUM_THREADS says.  On two cores those teams cost far more than they
+ * bring: on the 174,000-unknown correspondence system of the pebble camel
+ * (tests/bench/bench_mc.c) a factorisation takes 1.15 s with them and 0.6 s
+ * without (2 to 10 s with OMP_THREAD_LIMIT=2); a springs Newton step went
+ * from 0.2 s to 7.9 s on a busy machine.  Inside an active parallel region
+ * nested regions get one thread (OpenMP's default max-active-levels is 1),
+ * so outside one the factorisation is called from the first thread of a
+ * team of two while the second waits, and inside one it is called
+ * directly.  The loops only copy and clear, so the result is the same bits
+ * either way.
+ */
+#ifndef DTX_CHOLMOD_UTIL_H
+#define DTX_CHOLMOD_UTIL_H
+
+#include "status.h"
+
+#include <cholmod.h>
+
+/* Which factorisation CHOLMOD computes. */
+typedef enum {
+    /* CHOLMOD's default: supernodal L L' when the analysis finds enough
+     * fill for it to pay, simplicial L D L' otherwise. */
+    DTX__CHOL_AUTO,
+    /* Always simplicial L D L' (cc->supernodal = CHOLMOD_SIMPLICIAL,
+     * cc->final_ll = 0). */
+    DTX__CHOL_SIMPLICIAL
+} dtx__chol_kind;
+
+/* Fill-reducing ordering tried by the analysis. */
+typedef enum {
+    /* CHOLMOD's default strategy: AMD, and METIS nested dissection as well
+     * when AMD's fill is high, keeping the better. */
+    DTX__CHOL_ORDER_DEFAULT,
+    /* AMD only (cc->nmethods = 1). */
+    DTX__CHOL_ORDER_AMD,
+    /* METIS nested dissection only (CHOLMOD_NESDIS, cc->nmethods = 1). */
+    DTX__CHOL_ORDER_NESDIS
+} dtx__chol_ordering;
+
+/* Whether the numeric factorisation may use CHOLMOD's OpenMP teams (see
+ * the file comment). */
+typedef enum {
+    DTX__CHOL_TEAMS,   /* cholmod_factorize as it is */
+    DTX__CHOL_NO_TEAMS /* without CHOLMOD's own OpenMP teams */
+} dtx__chol_threads;
+
+/* cholmod_start(cc) and dtx's settings: no printing, the factor kind and
+ * the ordering; everything else (int indices, double values, postordering)
+ * stays at CHOLMOD's defaults.  A common that only solves takes
+ * DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT.  Release with cholmod_finish. */
+void dtx__chol_start(cholmod_common *cc, dtx__chol_kind kind, dtx__chol_ordering ordering);
+
+/* Symbolic analysis of A (symmetric, the triangle its stype says) with
+ * cc's ordering, into *L (free with cholmod_free_factor).  On failure *L is
+ * NULL and the status and err come from dtx__chol_error ("analysed"). */
+dtx_status dtx__chol_analyze(cholmod_sparse *A, const char *system, cholmod_factor **L,
+                             cholmod_common *cc, dtx_error *err);
+
+/* Numeric factorisation of A into L (analysed from A's pattern), reusing
+ * L's symbolic part.  DTX_OK when L is a complete factor
+ * (cholmod_factorize succeeded and left cc->status at CHOLMOD_OK, so
+ * L->minor == L->n); otherwise the status and err of dtx__chol_error
+ * ("factored").  err may be NULL for a caller that retries: the status
+ * still tells DTX_ENOMEM from DTX_ESOLVE. */
+dtx_status dtx__chol_factorize(cholmod_sparse *A, dtx__chol_threads threads, const char *system,
+                               const char *hint, cholmod_factor *L, cholmod_common *cc,
+                               dtx_error *err);
+
+/* dtx__chol_analyze then dtx__chol_factorize into *L; on failure *L is
+ * NULL (no factor is left behind). */
+dtx_status dtx__chol_analyze_factorize(cholmod_sparse *A, dtx__chol_threads threads,
+                                       const char *system, const char *hint, cholmod_factor **L,
+                                       cholmod_common *cc, dtx_error *err);
+
+/* Turns the failure of a CHOLMOD call that was `doing` ("analysed",
+ * "factored") the caller's `system` (a noun phrase that starts the
+ * message, e.g. "the springs Newton system") into a status and a message:
+ *   CHOLMOD_OUT_OF_MEMORY: DTX_ENOMEM, "SYSTEM could not be DOING (CHOLMOD
+ *     status -2: out of memory)";
+ *   CHOLMOD_NOT_POSDEF: DTX_ESOLVE, "... (CHOLMOD status 1: not positive
+ *     definite at column K of N)HINT", K = L->minor + 1 counted from 1
+ *     (without it when L is NULL);
+ *   anything else: DTX_ESOLVE, "... (CHOLMOD status S)HINT".
+ * hint (NULL for none) is appended as it is, so it brings its own
+ * separator ("; the mesh may have degenerate triangles").  err may be
+ * NULL; returns the status. */
+dtx_status dtx__chol_error(const cholmod_factor *L, const char *doing, const char *system,
+                           const char *hint, const cholmod_common *cc, dtx_error *err);
+
+#endif /* DTX_CHOLMOD_UTIL_H */
