@@ -62,54 +62,12 @@ static char *dup_str(ictx *c, const char *s)
 
 /* ------------------------------------------------------------ listing */
 
-typedef struct {
-    char **names;
-    size_t n, cap;
-    int oom;
-} name_list;
-
-static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void *data)
-{
-    name_list *l = data;
-    size_t len = strlen(name);
-    (void)g;
-    (void)info;
-    if (l->n == l->cap) {
-        size_t cap = l->cap ? 2 * l->cap : 16;
-        char **p = realloc(l->names, cap * sizeof *p);
-        if (!p) {
-            l->oom = 1;
-            return -1;
-        }
-        l->names = p;
-        l->cap = cap;
-    }
-    l->names[l->n] = malloc(len + 1);
-    if (!l->names[l->n]) {
-        l->oom = 1;
-        return -1;
-    }
-    memcpy(l->names[l->n++], name, len + 1);
-    return 0;
-}
-
-static void free_names(name_list *l)
-{
-    for (size_t i = 0; i < l->n; i++)
-        free(l->names[i]);
-    free(l->names);
-    memset(l, 0, sizeof *l);
-}
-
 /* The members of group (sorted by name); 0, or -1 when it cannot be
  * listed (l is then empty; oom noted in c). */
-static int list_members(ictx *c, const char *group, name_list *l)
+static int list_members(ictx *c, const char *group, dtx_h5_names *l)
 {
-    memset(l, 0, sizeof *l);
-    if (H5Literate_by_name(c->f, group, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, l,
-                           H5P_DEFAULT) < 0) {
+    if (dtx_h5_list_names(c->f, group, l) < 0) {
         c->oom |= l->oom;
-        free_names(l);
         return -1;
     }
     return 0;
@@ -495,7 +453,7 @@ static void add_item(ictx *c, int64_t kind_index, const char *path, int temporar
 static void walk(ictx *c, int64_t kind_index, const char *gpath, int depth)
 {
     size_t tl = strlen(DTX_H5_TMP_PREFIX);
-    name_list l;
+    dtx_h5_names l;
     if (list_members(c, gpath, &l) < 0)
         return;
     for (size_t i = 0; i < l.n && !c->oom; i++) {
@@ -509,7 +467,7 @@ static void walk(ictx *c, int64_t kind_index, const char *gpath, int depth)
         else if (depth < MAX_DEPTH)
             walk(c, kind_index, path, depth + 1);
     }
-    free_names(&l);
+    dtx_h5_names_free(&l);
 }
 
 /* ------------------------------------------------------------ kinds */
@@ -569,7 +527,7 @@ static void load_kinds(ictx *c)
 dtx_status dtx_h5_inspect(const char *path, dtx_h5_summary *out, dtx_error *err)
 {
     ictx c;
-    name_list top;
+    dtx_h5_names top;
     dtx_status st;
     memset(out, 0, sizeof *out);
     memset(&c, 0, sizeof c);
@@ -603,7 +561,7 @@ dtx_status dtx_h5_inspect(const char *path, dtx_h5_summary *out, dtx_error *err)
             if (out->other[out->nother])
                 out->nother++;
         }
-        free_names(&top);
+        dtx_h5_names_free(&top);
     }
     dtx_h5_close(&c.f, NULL);
     cJSON_Delete(c.desc);

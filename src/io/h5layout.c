@@ -2343,15 +2343,9 @@ fail:
     return st;
 }
 
-typedef struct {
-    char **names;
-    size_t n, cap;
-    int oom;
-} name_list;
-
 static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void *data)
 {
-    name_list *l = data;
+    dtx_h5_names *l = data;
     (void)g;
     (void)info;
     if (l->n == l->cap) {
@@ -2372,6 +2366,27 @@ static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void
     return 0;
 }
 
+void dtx_h5_names_free(dtx_h5_names *l)
+{
+    for (size_t i = 0; i < l->n; i++)
+        free(l->names[i]);
+    free(l->names);
+    memset(l, 0, sizeof *l);
+}
+
+int dtx_h5_list_names(hid_t file, const char *path, dtx_h5_names *l)
+{
+    memset(l, 0, sizeof *l);
+    if (H5Literate_by_name(file, path, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, l,
+                           H5P_DEFAULT) < 0) {
+        int oom = l->oom;
+        dtx_h5_names_free(l);
+        l->oom = oom;
+        return -1;
+    }
+    return 0;
+}
+
 static int cmp_str(const void *a, const void *b)
 {
     return strcmp(*(char *const *)a, *(char *const *)b);
@@ -2380,22 +2395,16 @@ static int cmp_str(const void *a, const void *b)
 dtx_status dtx_h5_list_groups(hid_t file, const char *path, char ***names, int64_t *n,
                               dtx_error *err)
 {
-    name_list l = {NULL, 0, 0, 0};
+    dtx_h5_names l;
     char child[DTX_H5_PATH_MAX];
     size_t kept = 0;
     *names = NULL;
     *n = 0;
     if (object_type(file, path) != H5O_TYPE_GROUP)
         return ferr(err, DTX_EFORMAT, file, path, "missing (no such group)");
-    if (H5Literate_by_name(file, path, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, &l,
-                           H5P_DEFAULT) < 0) {
-        dtx_status st = l.oom ? ferr(err, DTX_ENOMEM, file, path, "out of memory")
-                              : h5err(err, file, path, "cannot list the group");
-        for (size_t i = 0; i < l.n; i++)
-            free(l.names[i]);
-        free(l.names);
-        return st;
-    }
+    if (dtx_h5_list_names(file, path, &l) < 0)
+        return l.oom ? ferr(err, DTX_ENOMEM, file, path, "out of memory")
+                     : h5err(err, file, path, "cannot list the group");
     for (size_t i = 0; i < l.n; i++) {
         if (strncmp(l.names[i], DTX_H5_TMP_PREFIX, strlen(DTX_H5_TMP_PREFIX)) != 0 &&
             !join_path(path, l.names[i], child, sizeof child) &&
@@ -2418,18 +2427,15 @@ dtx_status dtx_h5_list_groups(hid_t file, const char *path, char ***names, int64
 dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out,
                                    dtx_error *err)
 {
-    name_list l = {NULL, 0, 0, 0};
+    dtx_h5_names l;
     char path[DTX_H5_PATH_MAX];
     dtx_status st = DTX_OK;
     *group_out = NULL;
     if (object_type(file, "/correspondences") != H5O_TYPE_GROUP)
         return DTX_OK;
-    if (H5Literate_by_name(file, "/correspondences", H5_INDEX_NAME, H5_ITER_INC, NULL,
-                           collect_cb, &l, H5P_DEFAULT) < 0) {
-        st = l.oom ? ferr(err, DTX_ENOMEM, file, "/correspondences", "out of memory")
-                   : h5err(err, file, "/correspondences", "cannot list the group");
-        goto done;
-    }
+    if (dtx_h5_list_names(file, "/correspondences", &l) < 0)
+        return l.oom ? ferr(err, DTX_ENOMEM, file, "/correspondences", "out of memory")
+                     : h5err(err, file, "/correspondences", "cannot list the group");
     for (size_t i = 0; i < l.n && !*group_out; i++) {
         char *k = NULL;
         if (strncmp(l.names[i], DTX_H5_TMP_PREFIX, strlen(DTX_H5_TMP_PREFIX)) == 0 ||
@@ -2444,9 +2450,7 @@ dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out
         free(k);
     }
 done:
-    for (size_t i = 0; i < l.n; i++)
-        free(l.names[i]);
-    free(l.names);
+    dtx_h5_names_free(&l);
     return st;
 }
 

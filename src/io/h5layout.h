@@ -186,6 +186,20 @@ dtx_status dtx_h5_commit_group(hid_t file, const char *tmp, const char *final, i
  * not reclaim the space (h5repack does). */
 dtx_status dtx_h5_remove(hid_t file, const char *path, dtx_error *err);
 
+/* The names of every link in the group at path, in HDF5's name order (the
+ * lister that inspect, validate and the layout readers share).  Returns 0,
+ * or -1 when the group cannot be listed: l is then empty and l->oom is 1
+ * when it was for want of memory.  Free l with dtx_h5_names_free. */
+typedef struct {
+    char **names;
+    size_t n, cap;
+    int oom;
+} dtx_h5_names;
+int dtx_h5_list_names(hid_t file, const char *path, dtx_h5_names *l);
+
+/* Frees the names and empties l (oom is cleared too). */
+void dtx_h5_names_free(dtx_h5_names *l);
+
 /* The names of the groups directly under the group at path (a soft link
  * that resolves to a group counts; objects under a temporary name are
  * skipped), sorted by strcmp.  *names receives a

@@ -1040,51 +1040,9 @@ static void check_group(vctx *c, const cJSON *kind, const char *path)
     reset_current(c, "", "");
 }
 
-typedef struct {
-    char **names;
-    size_t n, cap;
-    int oom;
-} name_list;
-
-static herr_t collect_cb(hid_t g, const char *name, const H5L_info_t *info, void *data)
+static int list_members(vctx *c, const char *group, dtx_h5_names *l)
 {
-    name_list *l = data;
-    size_t len = strlen(name);
-    (void)g;
-    (void)info;
-    if (l->n == l->cap) {
-        size_t cap = l->cap ? 2 * l->cap : 16;
-        char **p = realloc(l->names, cap * sizeof *p);
-        if (!p) {
-            l->oom = 1;
-            return -1;
-        }
-        l->names = p;
-        l->cap = cap;
-    }
-    l->names[l->n] = malloc(len + 1);
-    if (!l->names[l->n]) {
-        l->oom = 1;
-        return -1;
-    }
-    memcpy(l->names[l->n++], name, len + 1);
-    return 0;
-}
-
-static void free_names(name_list *l)
-{
-    for (size_t i = 0; i < l->n; i++)
-        free(l->names[i]);
-    free(l->names);
-    memset(l, 0, sizeof *l);
-}
-
-static int list_members(vctx *c, const char *group, name_list *l)
-{
-    memset(l, 0, sizeof *l);
-    if (H5Literate_by_name(c->file, group, H5_INDEX_NAME, H5_ITER_INC, NULL, collect_cb, l,
-                           H5P_DEFAULT) < 0) {
-        free_names(l);
+    if (dtx_h5_list_names(c->file, group, l) < 0) {
         problem(c, group, "cannot list the group's members");
         return -1;
     }
@@ -1121,7 +1079,7 @@ static void walk_kind(vctx *c, const cJSON *kind, const char *gpath, int depth)
 {
     const char *kname = jstr(kind, "name");
     size_t tl = strlen(DTX_H5_TMP_PREFIX);
-    name_list l;
+    dtx_h5_names l;
     if (list_members(c, gpath, &l) < 0)
         return;
     for (size_t i = 0; i < l.n; i++) {
@@ -1138,16 +1096,16 @@ static void walk_kind(vctx *c, const cJSON *kind, const char *gpath, int depth)
         else if (depth >= 8)
             problem(c, path, "groups nested too deeply below /%s", kname);
         else {
-            name_list sub;
+            dtx_h5_names sub;
             if (list_members(c, path, &sub) < 0)
                 continue;
             if (sub.n == 0)
                 problem(c, path, "is empty: neither a %s group nor a group of them", kname);
-            free_names(&sub);
+            dtx_h5_names_free(&sub);
             walk_kind(c, kind, path, depth + 1);
         }
     }
-    free_names(&l);
+    dtx_h5_names_free(&l);
 }
 
 static void check_kind(vctx *c, const cJSON *kind)
@@ -1165,7 +1123,7 @@ static void check_kind(vctx *c, const cJSON *kind)
 /* Notes top-level members that are not part of the layout. */
 static void check_top(vctx *c, const cJSON *kinds)
 {
-    name_list l;
+    dtx_h5_names l;
     if (list_members(c, "/", &l) < 0)
         return;
     for (size_t i = 0; i < l.n; i++) {
@@ -1179,7 +1137,7 @@ static void check_top(vctx *c, const cJSON *kinds)
         if (!known)
             out(c, "/%s: note: not part of the dtx layout (not checked)\n", l.names[i]);
     }
-    free_names(&l);
+    dtx_h5_names_free(&l);
 }
 
 /* "; 3 results, 25 of 27 frames checked (finite; 2 not done); 1 sequence,
