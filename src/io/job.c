@@ -1186,3 +1186,42 @@ char *dtx_job_params_json(const dtx_job *job)
     }
     return b.buf;
 }
+
+void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p)
+{
+    static const dtx_transfer_kind kinds[] = {
+        [DTX_METHOD_SP04] = DTX_TRANSFER_SP04,
+        [DTX_METHOD_MULTICOMPONENT] = DTX_TRANSFER_MULTICOMPONENT,
+        [DTX_METHOD_SPRINGS] = DTX_TRANSFER_SPRINGS,
+        [DTX_METHOD_BIHARMONIC] = DTX_TRANSFER_BIHARMONIC,
+    };
+    dtx_transfer_params_default(p, kinds[job->method]);
+    if (job->method == DTX_METHOD_MULTICOMPONENT) {
+        dtx_mc_params *mp = &p->u.mc;
+        mp->w_match = job->mc.w_match;
+        mp->w_orphan = job->mc.w_orphan;
+        mp->w_proximity = job->mc.w_proximity;
+        mp->lengths = (dtx_mc_lengths)job->mc.lengths;
+        mp->w_laplacian = job->mc.w_laplacian;
+        mp->eps_factor = job->mc.eps_factor;
+        mp->max_iter = job->mc.max_iter;
+        mp->tol = job->mc.tol;
+    } else if (job->method == DTX_METHOD_SPRINGS) {
+        const dtx_springs_job_params *q = &job->springs;
+        dtx_springs_params *sp = &p->u.springs;
+        sp->bending = q->bending;
+        sp->internal = q->internal;
+        sp->levels = q->levels;
+        sp->coarse_min = q->coarse_min;
+        sp->start = q->start_rest ? DTX_SPRINGS_START_REST : DTX_SPRINGS_START_LINEAR;
+        sp->max_iter = q->max_iter;
+        sp->tol = q->tol;
+        sp->coarse_max_iter = q->coarse_max_iter;
+        sp->coarse_tol = q->coarse_tol;
+    } else if (job->method == DTX_METHOD_BIHARMONIC) {
+        dtx_bh_params *bp = &p->u.bh;
+        bp->skin.lambda = job->bh.lambda;
+        bp->skin.gamma_logr = job->bh.gamma_logr;
+        bp->skin.gamma_s = job->bh.gamma_s;
+    }
+}

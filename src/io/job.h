@@ -24,6 +24,7 @@
 #define DTX_JOB_H
 
 #include "status.h"
+#include "transfer.h"
 
 #include <stdint.h>
 
@@ -191,6 +192,10 @@ char *dtx_job_params_json(const dtx_job *job);
  * correspondence); keys sorted by byte value at every level, no spaces, numbers
  * printed with %.17g (needs the default "C" LC_NUMERIC locale).  NULL when
  * out of memory or job is NULL.  Thread-safe.) */
+
+/* The job's method as core's tagged parameters (transfer.h): its kind, and
+ * the job's values over that method's defaults. */
+void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p);
 
 /* The job schema, schemas/job.schema.json, as built into the binary
  * (job_schema_text.c) so that dtx works without the source tree: a
