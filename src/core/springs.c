@@ -44,10 +44,12 @@
 #include "springs.h"
 #include "cholmod_util.h"
 #include "coarsen.h"
+#include "transfer.h"
 #include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -1912,3 +1914,89 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
     }
     return DTX_OK;
 }
+
+/* ------------------------------------------------------------------ */
+/* The method table (transfer.h)                                       */
+/* ------------------------------------------------------------------ */
+
+/* The table's plan: the springs plan and the last apply's figures. */
+typedef struct {
+    dtx_springs_plan *plan;
+    void *info; /* info_cap dtx_springs_frame_info */
+    int64_t info_cap;
+} springs_method_plan;
+
+static void springs_method_free(void **plan)
+{
+    springs_method_plan *p = *plan;
+    if (!p)
+        return;
+    dtx_springs_plan_free(&p->plan);
+    free(p->info);
+    free(p);
+    *plan = NULL;
+}
+
+static dtx_status springs_method_create(const dtx_transfer_inputs *in,
+                                        const dtx_transfer_params *prm, void **plan, dtx_error *err)
+{
+    springs_method_plan *p = dtx_alloc(1, sizeof *p, 1);
+    dtx_status st;
+    *plan = NULL;
+    if (!p)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    st = dtx_springs_plan_create(in->src, in->tgt, in->proxy, &prm->u.springs, in->anchor, in->pins,
+                                 in->pin_pos, in->npins, &p->plan, err);
+    *plan = p;
+    if (st != DTX_OK)
+        springs_method_free(plan);
+    return st;
+}
+
+static dtx_status springs_method_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                                       dtx_frame_info *info, dtx_error *err)
+{
+    springs_method_plan *p = plan;
+    const dtx_springs_frame_info *si;
+    dtx_status st = dtx_transfer_scratch(&p->info, &p->info_cap, nframes, sizeof *si, err);
+    si = p->info;
+    if (st == DTX_OK)
+        st = dtx_springs_apply(p->plan, nframes, Xs, Xt, p->info, err);
+    for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
+        info[i].residual = si[i].residual;
+        info[i].iterations = si[i].iterations;
+        info[i].converged = si[i].converged;
+        info[i].inverted = si[i].inverted;
+    }
+    return st;
+}
+
+static void springs_method_describe(const void *plan, char *buf, size_t size)
+{
+    const springs_method_plan *p = plan;
+    dtx_springs_info info;
+    int n;
+    dtx_springs_plan_info(p->plan, &info);
+    n = snprintf(buf, size,
+                 "%d edge, %d bending and %d internal springs%s; %d levels (%d vertices on the "
+                 "coarsest); factor %lld entries; %.2f s",
+                 (int)info.springs[DTX_SPRING_EDGE], (int)info.springs[DTX_SPRING_BENDING],
+                 (int)info.springs[DTX_SPRING_INTERNAL], info.proxy ? " on the proxy" : "",
+                 info.levels, (int)info.level_vertices[info.levels - 1], (long long)info.factor_nnz,
+                 info.setup_seconds);
+    if (info.proxy && n >= 0 && (size_t)n < size)
+        snprintf(buf + n, size - (size_t)n,
+                 "\nits vertices lie %.3g%% of its diagonal (RMS) from the proxy",
+                 100 * info.proxy_rms);
+}
+
+const dtx_transfer_method dtx_method_springs = {
+    .name = "springs",
+    .kind = DTX_TRANSFER_SPRINGS,
+    .iterative = 1,
+    .solve_group = 1,
+    .plan_create = springs_method_create,
+    .apply = springs_method_apply,
+    .plan_free = springs_method_free,
+    .describe = springs_method_describe,
+};

@@ -5,9 +5,11 @@
 
 #include "bbw.h"
 #include "dtx_core.h"
+#include "transfer.h"
 
 #include <math.h>
 #include <omp.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -238,3 +240,110 @@ dtx_status dtx_bh_apply(const dtx_bh_plan *p, int64_t nframes, const double *Xs,
     free(diff);
     return st;
 }
+
+/* ------------------------------------------------------------------ */
+/* The method table (transfer.h)                                       */
+/* ------------------------------------------------------------------ */
+
+/* The table's plan: the biharmonic plan, the residuals of the last apply,
+ * and with DTX_ANCHOR_FIXED the target's rest centroid every frame is
+ * moved to. */
+typedef struct {
+    dtx_bh_plan *plan;
+    void *res; /* res_cap doubles */
+    int64_t res_cap;
+    int recentre;
+    double centre[3];
+} bh_method_plan;
+
+/* Moves each of the n frames X (n x nv x 3) so that its vertex centroid is
+ * c (per frame, in vertex order: the same bits however frames are split). */
+static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
+{
+    for (int64_t f = 0; f < n; f++) {
+        double *Y = X + (size_t)f * 3 * (size_t)nv, m[3] = {0, 0, 0};
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 3; k++)
+                m[k] += Y[3 * (size_t)i + k];
+        for (int k = 0; k < 3; k++)
+            m[k] = c[k] - m[k] / nv;
+        for (int32_t i = 0; i < nv; i++)
+            for (int k = 0; k < 3; k++)
+                Y[3 * (size_t)i + k] += m[k];
+    }
+}
+
+static void bh_method_free(void **plan)
+{
+    bh_method_plan *p = *plan;
+    if (!p)
+        return;
+    dtx_bh_plan_free(&p->plan);
+    free(p->res);
+    free(p);
+    *plan = NULL;
+}
+
+static dtx_status bh_method_create(const dtx_transfer_inputs *in, const dtx_transfer_params *prm,
+                                   void **plan, dtx_error *err)
+{
+    bh_method_plan *p = dtx_alloc(1, sizeof *p, 1);
+    dtx_status st;
+    *plan = NULL;
+    if (!p)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    st = dtx_bh_plan_create(in->src, in->tgt, in->src_keys, in->tgt_keys, in->nkeys, &prm->u.bh,
+                            in->ntrain, in->Xtrain, &p->plan, err);
+    *plan = p;
+    if (st != DTX_OK) {
+        bh_method_free(plan);
+        return st;
+    }
+    p->recentre = in->anchor == DTX_ANCHOR_FIXED;
+    for (int k = 0; k < 3; k++) {
+        p->centre[k] = 0;
+        for (int32_t i = 0; i < in->tgt->nv; i++)
+            p->centre[k] += in->tgt->V[3 * (size_t)i + k];
+        p->centre[k] /= in->tgt->nv;
+    }
+    return DTX_OK;
+}
+
+static dtx_status bh_method_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                                  dtx_frame_info *info, dtx_error *err)
+{
+    bh_method_plan *p = plan;
+    dtx_status st = dtx_transfer_scratch(&p->res, &p->res_cap, nframes, sizeof(double), err);
+    const double *res = p->res;
+    if (st == DTX_OK)
+        st = dtx_bh_apply(p->plan, nframes, Xs, Xt, p->res, err);
+    if (st == DTX_OK && p->recentre)
+        recentre(Xt, nframes, dtx_bh_plan_nv_tgt(p->plan), p->centre);
+    for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
+        info[i].residual = res[i];
+        info[i].iterations = info[i].converged = info[i].inverted = -1;
+    }
+    return st;
+}
+
+static void bh_method_describe(const void *plan, char *buf, size_t size)
+{
+    const bh_method_plan *p = plan;
+    dtx_bh_info info;
+    dtx_bh_plan_info(p->plan, &info);
+    snprintf(buf, size,
+             "%d key points, %d rotation clusters, biharmonic weights %.2f s; key points %.2f%% "
+             "of the source diagonal apart after aligning the target",
+             (int)info.keys, (int)info.clusters, info.weights_seconds, 100 * info.align_rms);
+}
+
+const dtx_transfer_method dtx_method_biharmonic = {
+    .name = "biharmonic",
+    .kind = DTX_TRANSFER_BIHARMONIC,
+    .iterative = 0,
+    .solve_group = DTX_SP04_SOLVE_GROUP,
+    .plan_create = bh_method_create,
+    .apply = bh_method_apply,
+    .plan_free = bh_method_free,
+    .describe = bh_method_describe,
+};

@@ -77,10 +77,12 @@
 #include "cholmod_util.h"
 #include "dtx_core.h"
 #include "proximity.h"
+#include "transfer.h"
 #include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -1356,3 +1358,86 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
     }
     return DTX_OK;
 }
+
+/* ------------------------------------------------------------------ */
+/* The method table (transfer.h)                                       */
+/* ------------------------------------------------------------------ */
+
+/* The table's plan: the multicomponent plan and the last apply's figures. */
+typedef struct {
+    dtx_mc_plan *plan;
+    void *res, *info; /* cap doubles, cap dtx_mc_frame_info */
+    int64_t res_cap, info_cap;
+} mc_method_plan;
+
+static void mc_method_free(void **plan)
+{
+    mc_method_plan *p = *plan;
+    if (!p)
+        return;
+    dtx_mc_plan_free(&p->plan);
+    free(p->res);
+    free(p->info);
+    free(p);
+    *plan = NULL;
+}
+
+static dtx_status mc_method_create(const dtx_transfer_inputs *in, const dtx_transfer_params *prm,
+                                   void **plan, dtx_error *err)
+{
+    mc_method_plan *p = dtx_alloc(1, sizeof *p, 1);
+    dtx_status st;
+    *plan = NULL;
+    if (!p)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    st = dtx_mc_plan_create(in->src, in->tgt, in->pairs, in->npairs, &prm->u.mc, in->anchor,
+                            in->pins, in->pin_pos, in->npins, &p->plan, err);
+    *plan = p;
+    if (st != DTX_OK)
+        mc_method_free(plan);
+    return st;
+}
+
+static dtx_status mc_method_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                                  dtx_frame_info *info, dtx_error *err)
+{
+    mc_method_plan *p = plan;
+    dtx_status st = dtx_transfer_scratch(&p->res, &p->res_cap, nframes, sizeof(double), err);
+    const double *res = p->res;
+    const dtx_mc_frame_info *mi;
+    if (st == DTX_OK)
+        st = dtx_transfer_scratch(&p->info, &p->info_cap, nframes, sizeof *mi, err);
+    mi = p->info;
+    if (st == DTX_OK)
+        st = dtx_mc_apply(p->plan, nframes, Xs, Xt, p->res, p->info, err);
+    for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
+        info[i].residual = res[i];
+        info[i].iterations = mi[i].iterations;
+        info[i].converged = mi[i].converged;
+        info[i].inverted = -1; /* not counted */
+    }
+    return st;
+}
+
+static void mc_method_describe(const void *plan, char *buf, size_t size)
+{
+    const mc_method_plan *p = plan;
+    dtx_mc_info info;
+    dtx_mc_plan_info(p->plan, &info);
+    snprintf(buf, size,
+             "%d components, %d proximity edges with %lld vertex pairs, %d orphan triangles, "
+             "%d orphan components",
+             (int)info.components, (int)info.proximity_edges, (long long)info.proximity_pairs,
+             (int)info.orphan_triangles, (int)info.orphan_components);
+}
+
+const dtx_transfer_method dtx_method_multicomponent = {
+    .name = "multicomponent",
+    .kind = DTX_TRANSFER_MULTICOMPONENT,
+    .iterative = 1,
+    .solve_group = DTX_SP04_SOLVE_GROUP,
+    .plan_create = mc_method_create,
+    .apply = mc_method_apply,
+    .plan_free = mc_method_free,
+    .describe = mc_method_describe,
+};

@@ -52,10 +52,12 @@
  */
 #include "cholmod_util.h"
 #include "dtx_core.h"
+#include "transfer.h"
 #include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -1292,3 +1294,75 @@ double dtx_sp04_plan_bare_solve_seconds(dtx_sp04_plan *p, int nrep)
 {
     return dtx_sp04_plan_bare_solve_seconds_group(p, 1, nrep);
 }
+
+/* ------------------------------------------------------------------ */
+/* The method table (transfer.h)                                       */
+/* ------------------------------------------------------------------ */
+
+/* The table's plan: the sp04 plan and the residuals of the last apply. */
+typedef struct {
+    dtx_sp04_plan *plan;
+    void *res; /* res_cap doubles */
+    int64_t res_cap;
+} sp04_method_plan;
+
+static void sp04_method_free(void **plan)
+{
+    sp04_method_plan *p = *plan;
+    if (!p)
+        return;
+    dtx_sp04_plan_free(&p->plan);
+    free(p->res);
+    free(p);
+    *plan = NULL;
+}
+
+static dtx_status sp04_method_create(const dtx_transfer_inputs *in, const dtx_transfer_params *prm,
+                                     void **plan, dtx_error *err)
+{
+    sp04_method_plan *p = dtx_alloc(1, sizeof *p, 1);
+    dtx_status st;
+    (void)prm;
+    *plan = NULL;
+    if (!p)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    st = dtx_sp04_plan_create(in->src, in->tgt, in->pairs, in->npairs, in->anchor, in->pins,
+                              in->pin_pos, in->npins, &p->plan, err);
+    *plan = p;
+    if (st != DTX_OK)
+        sp04_method_free(plan);
+    return st;
+}
+
+static dtx_status sp04_method_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                                    dtx_frame_info *info, dtx_error *err)
+{
+    sp04_method_plan *p = plan;
+    dtx_status st = dtx_transfer_scratch(&p->res, &p->res_cap, nframes, sizeof(double), err);
+    const double *res = p->res;
+    if (st == DTX_OK)
+        st = dtx_sp04_apply(p->plan, nframes, Xs, Xt, p->res, err);
+    for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
+        info[i].residual = res[i];
+        info[i].iterations = info[i].converged = info[i].inverted = -1;
+    }
+    return st;
+}
+
+static void sp04_method_describe(const void *plan, char *buf, size_t size)
+{
+    (void)plan;
+    if (size > 0)
+        buf[0] = '\0';
+}
+
+const dtx_transfer_method dtx_method_sp04 = {
+    .name = "sp04",
+    .kind = DTX_TRANSFER_SP04,
+    .iterative = 0,
+    .solve_group = DTX_SP04_SOLVE_GROUP,
+    .plan_create = sp04_method_create,
+    .apply = sp04_method_apply,
+    .plan_free = sp04_method_free,
+    .describe = sp04_method_describe,
+};

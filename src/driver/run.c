@@ -121,7 +121,9 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
     if ((st = run_load_job(comm, job_path, &r.job, err)) != DTX_OK)
         return st;
     snprintf(r.partial, sizeof r.partial, "%s.partial", r.job.output_file);
-    r.align = r.job.method == DTX_METHOD_SPRINGS ? 1 : DTX_FRAME_ALIGN;
+    dtx_job_transfer_params(&r.job, &r.prm);
+    r.method = dtx_transfer_method_of(r.prm.kind);
+    r.align = r.method->solve_group;
     if ((st = run_take_output(&r, err)) != DTX_OK)
         goto fail;
     /* 2. The inputs. */

@@ -96,9 +96,9 @@ dtx_status run_select_keypoints(run_state *r, dtx_error *err)
     kp.candidates = bh->candidates;
     kp.eps = bh->eps;
     kp.max_keys = bh->max_keypoints;
-    kp.skin.lambda = bh->lambda;
-    kp.skin.gamma_logr = bh->gamma_logr;
-    kp.skin.gamma_s = bh->gamma_s;
+    kp.skin.lambda = bh->transfer.skin.lambda;
+    kp.skin.gamma_logr = bh->transfer.skin.gamma_logr;
+    kp.skin.gamma_s = bh->transfer.skin.gamma_s;
     run_say(r,
             "dtx: selecting key points on %s:%s from %d training frames (%d candidates, %d "
             "rank(s) x %d thread(s))",

@@ -7,9 +7,6 @@
  */
 #include "run_internal.h"
 
-#include "springs.h"
-#include "transfer_bh.h"
-
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -47,8 +44,7 @@ static dtx_status groups_todo(const result_ctx *rc, int align, int64_t **todo, i
 typedef struct {
     int32_t block;         /* frames per block, a multiple of the run's align */
     double *Xs, *Xt, *res; /* block x nv_s x 3, block x nv_t x 3, block */
-    dtx_springs_frame_info *sinfo; /* method springs: block entries */
-    dtx_mc_frame_info *minfo;      /* method multicomponent: block entries */
+    dtx_frame_info *info;  /* block entries */
     int32_t *fstats;       /* iterative methods: block x DTX_H5_FRAME_STATS */
 } frame_buffers;
 
@@ -101,57 +97,10 @@ static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int
 }
 
 /* Transfers the frames of result (t, s) not yet done, each rank its share,
- * in blocks; with collective I/O every rank makes the same number of
- * writes (ranks without frames write nothing). */
-/* The factored transfer of one target, by method. */
-typedef struct {
-    dtx_sp04_plan *sp04;
-    dtx_mc_plan *mc;
-    dtx_bh_plan *bh;
-    dtx_springs_plan *springs;
-    int recentre;      /* bh with translation "fixed": move each frame's centroid */
-    double centre[3];  /* to the target's rest centroid */
-} plan_ref;
-
-/* Moves each of the n frames X (n x nv x 3) so that its vertex centroid is
- * c (per frame, in vertex order: the same bits however frames are split). */
-static void recentre(double *X, int64_t n, int32_t nv, const double c[3])
-{
-    for (int64_t f = 0; f < n; f++) {
-        double *Y = X + (size_t)f * 3 * (size_t)nv, m[3] = {0, 0, 0};
-        for (int32_t i = 0; i < nv; i++)
-            for (int k = 0; k < 3; k++)
-                m[k] += Y[3 * (size_t)i + k];
-        for (int k = 0; k < 3; k++)
-            m[k] = c[k] - m[k] / nv;
-        for (int32_t i = 0; i < nv; i++)
-            for (int k = 0; k < 3; k++)
-                Y[3 * (size_t)i + k] += m[k];
-    }
-}
-
-static dtx_status plan_apply(const plan_ref *p, int64_t n, const double *Xs, double *Xt,
-                             double *res, frame_buffers *fb, dtx_error *err)
-{
-    if (p->springs) {
-        dtx_status st = dtx_springs_apply(p->springs, n, Xs, Xt, fb->sinfo, err);
-        for (int64_t i = 0; st == DTX_OK && i < n; i++)
-            res[i] = fb->sinfo[i].residual;
-        return st;
-    }
-    if (p->mc)
-        return dtx_mc_apply(p->mc, n, Xs, Xt, res, fb->minfo, err);
-    if (p->bh) {
-        dtx_status st = dtx_bh_apply(p->bh, n, Xs, Xt, res, err);
-        if (st == DTX_OK && p->recentre)
-            recentre(Xt, n, dtx_bh_plan_nv_tgt(p->bh), p->centre);
-        return st;
-    }
-    return dtx_sp04_apply(p->sp04, n, Xs, Xt, res, err);
-}
-
-static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *plan,
-                                  frame_buffers *fb, dtx_error *err)
+ * in blocks, through plan (of r->method); with collective I/O every rank
+ * makes the same number of writes (ranks without frames write nothing). */
+static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                  dtx_error *err)
 {
     result_ctx *rc = RESULT(r, t, s);
     const target_ctx *tc = &r->tg[t];
@@ -199,7 +148,9 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
         t1 = run_wtime();
         if (st == DTX_OK && n > 0) {
             dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
-            st = plan_apply(plan, n, fb->Xs, fb->Xt, fb->res, fb, err);
+            st = r->method->apply(plan, n, fb->Xs, fb->Xt, fb->info, err);
+            for (int64_t i = 0; st == DTX_OK && i < n; i++)
+                fb->res[i] = fb->info[i].residual;
             if (st == DTX_OK) /* twins identical, in the asset's order */
                 dtx_weld_result_frames(&tc->weld, fb->Xt, n);
         }
@@ -220,17 +171,14 @@ static dtx_status transfer_result(run_state *r, int t, int s, const plan_ref *pl
                 break;
             }
             run_stats_add(&rc->st, fb->res[i]);
-            if (plan->springs)
-                run_solves_add(&rc->sv, f0 + i, fb->sinfo[i].iterations, fb->sinfo[i].converged,
-                               fb->sinfo[i].inverted, fb->fstats + DTX_H5_FRAME_STATS * i);
-            else if (plan->mc) /* inverted triangles are not counted */
-                run_solves_add(&rc->sv, f0 + i, fb->minfo[i].iterations, fb->minfo[i].converged, -1,
-                               fb->fstats + DTX_H5_FRAME_STATS * i);
+            if (r->method->iterative) /* inverted -1 where not counted */
+                run_solves_add(&rc->sv, f0 + i, fb->info[i].iterations, fb->info[i].converged,
+                               fb->info[i].inverted, fb->fstats + DTX_H5_FRAME_STATS * i);
         }
         if ((st = run_agree(r->comm, st, err)) != DTX_OK)
             goto done;
         /* The solver figures first: dtx_h5_result_write marks frames done. */
-        if (plan->springs || plan->mc)
+        if (r->method->iterative)
             st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats,
                                                  r->job.collective_io, err);
         if (st == DTX_OK)
@@ -272,78 +220,64 @@ dtx_status run_count_todo(run_state *r, dtx_error *err)
     return run_agree(r->comm, st, err);
 }
 
-/* Method springs: the plan of one target (on the target itself, or on the
- * proxy for another connectivity). */
-static dtx_status springs_plan(run_state *r, const target_ctx *tc, dtx_anchor anchor,
-                               const int32_t *pins, const double *pin_pos, plan_ref *plan,
-                               dtx_error *err)
+/* The plan of target tc through r->method (every rank: each needs the
+ * factor for its solves), saying what it holds. */
+static dtx_status target_plan(run_state *r, const target_ctx *tc, void **plan, dtx_error *err)
 {
-    const dtx_springs_job_params *q = &r->job.springs;
-    dtx_springs_params sp;
-    dtx_springs_info info;
+    const dtx_job_target *tj = tc->tj;
+    dtx_transfer_inputs in;
+    int32_t *pin_idx = NULL;
+    double *pin_pos = NULL;
+    char text[2048];
     dtx_status st;
-    dtx_springs_params_default(&sp);
-    sp.bending = q->bending;
-    sp.internal = q->internal;
-    sp.levels = q->levels;
-    sp.coarse_min = q->coarse_min;
-    sp.start = q->start_rest ? DTX_SPRINGS_START_REST : DTX_SPRINGS_START_LINEAR;
-    sp.max_iter = q->max_iter;
-    sp.tol = q->tol;
-    sp.coarse_max_iter = q->coarse_max_iter;
-    sp.coarse_tol = q->coarse_tol;
-    if (!tc->same_conn && tc->tj->npins > 0)
+    *plan = NULL;
+    if (r->job.method == DTX_METHOD_SPRINGS && !tc->same_conn && tj->npins > 0)
         return dtx_seterr(err, DTX_EJOB,
                           "%s: target \"%s\": method springs holds pins only on a target with the "
                           "source's vertices and faces (this one goes through a proxy)",
-                          r->job.job_path ? r->job.job_path : "job", tc->tj->name);
-    st = dtx_springs_plan_create(&r->src, &tc->mesh, tc->same_conn ? NULL : tc->corr.deformed_src,
-                                 &sp, anchor, pins, pin_pos, tc->tj->npins, &plan->springs, err);
-    if (st != DTX_OK)
-        return st;
-    dtx_springs_plan_info(plan->springs, &info);
-    run_say(r,
-            "dtx: target %s: %d edge, %d bending and %d internal springs%s; %d levels (%d "
-            "vertices on the coarsest); factor %lld entries; %.2f s",
-            tc->tj->name, (int)info.springs[DTX_SPRING_EDGE], (int)info.springs[DTX_SPRING_BENDING],
-            (int)info.springs[DTX_SPRING_INTERNAL], info.proxy ? " on the proxy" : "", info.levels,
-            (int)info.level_vertices[info.levels - 1], (long long)info.factor_nnz,
-            info.setup_seconds);
-    if (info.proxy)
-        run_say(r, "dtx: target %s: its vertices lie %.3g%% of its diagonal (RMS) from the proxy",
-                tc->tj->name, 100 * info.proxy_rms);
-    return DTX_OK;
-}
-
-/* The biharmonic transfer of one target: both meshes' bounded biharmonic
- * weights of their key points and the source fit's clustering (on the
- * training frames). */
-static dtx_status bh_plan(run_state *r, const target_ctx *tc, plan_ref *plan, dtx_error *err)
-{
-    dtx_bh_params bp;
-    dtx_bh_info info;
-    dtx_status st;
-    dtx_bh_params_default(&bp);
-    bp.skin.lambda = r->job.bh.lambda;
-    bp.skin.gamma_logr = r->job.bh.gamma_logr;
-    bp.skin.gamma_s = r->job.bh.gamma_s;
-    st = dtx_bh_plan_create(&r->src, &tc->mesh, tc->keys.src, tc->keys.tgt, tc->keys.n, &bp,
-                            r->ntrain, r->Xtrain, &plan->bh, err);
-    if (st != DTX_OK)
-        return st;
-    plan->recentre = tc->tj->translation == DTX_TRANSLATION_FIXED;
-    for (int k = 0; k < 3; k++) {
-        plan->centre[k] = 0;
-        for (int32_t i = 0; i < tc->mesh.nv; i++)
-            plan->centre[k] += tc->mesh.V[3 * (size_t)i + k];
-        plan->centre[k] /= tc->mesh.nv;
+                          r->job.job_path ? r->job.job_path : "job", tj->name);
+    if (tj->npins > 0) {
+        pin_idx = dtx_alloc((size_t)tj->npins, sizeof *pin_idx, 0);
+        pin_pos = dtx_alloc((size_t)tj->npins, 3 * sizeof *pin_pos, 0);
+        if (pin_idx && pin_pos)
+            for (int32_t i = 0; i < tj->npins; i++) {
+                pin_idx[i] = dtx_weld_index(&tc->weld, tj->pins[i].vertex);
+                memcpy(pin_pos + 3 * i, tj->pins[i].pos, 3 * sizeof *pin_pos);
+            }
     }
-    dtx_bh_plan_info(plan->bh, &info);
-    run_say(r,
-            "dtx: target %s: %d key points, %d rotation clusters, biharmonic weights %.2f s; "
-            "key points %.2f%% of the source diagonal apart after aligning the target",
-            tc->tj->name, (int)info.keys, (int)info.clusters, info.weights_seconds,
-            100 * info.align_rms);
+    memset(&in, 0, sizeof in);
+    in.src = &r->src;
+    in.tgt = &tc->mesh;
+    in.pairs = tc->corr.pairs;
+    in.npairs = tc->corr.npairs;
+    in.proxy = tc->same_conn ? NULL : tc->corr.deformed_src;
+    in.src_keys = tc->keys.src;
+    in.tgt_keys = tc->keys.tgt;
+    in.nkeys = tc->keys.n;
+    in.ntrain = r->ntrain;
+    in.Xtrain = r->Xtrain;
+    in.anchor =
+        tj->translation == DTX_TRANSLATION_FOLLOW
+            ? DTX_ANCHOR_FOLLOW
+            : (tj->translation == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS : DTX_ANCHOR_FIXED);
+    in.pins = pin_idx;
+    in.pin_pos = pin_pos;
+    in.npins = tj->npins;
+    st = r->method->plan_create(&in, &r->prm, plan, err);
+    free(pin_idx);
+    free(pin_pos);
+    if (st != DTX_OK)
+        return st;
+    /* One message line per line of the method's description. */
+    r->method->describe(*plan, text, sizeof text);
+    for (char *line = text, *next; *line; line = next) {
+        next = strchr(line, '\n');
+        if (next)
+            *next++ = '\0';
+        else
+            next = line + strlen(line);
+        run_say(r, "dtx: target %s: %s", tj->name, line);
+    }
     return DTX_OK;
 }
 
@@ -363,15 +297,10 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
     fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src_weld.nv, 3 * sizeof *fb.Xs, 0);
     fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
     fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
-    if (r->job.method == DTX_METHOD_SPRINGS)
-        fb.sinfo = dtx_alloc((size_t)fb.block, sizeof *fb.sinfo, 1);
-    if (r->job.method == DTX_METHOD_MULTICOMPONENT)
-        fb.minfo = dtx_alloc((size_t)fb.block, sizeof *fb.minfo, 1);
-    if (run_iterative_method(&r->job))
+    fb.info = dtx_alloc((size_t)fb.block, sizeof *fb.info, 1);
+    if (r->method->iterative)
         fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
-    st = fb.Xs && fb.Xt && fb.res && (r->job.method != DTX_METHOD_SPRINGS || fb.sinfo) &&
-                 (r->job.method != DTX_METHOD_MULTICOMPONENT || fb.minfo) &&
-                 (!run_iterative_method(&r->job) || fb.fstats)
+    st = fb.Xs && fb.Xt && fb.res && fb.info && (!r->method->iterative || fb.fstats)
              ? DTX_OK
              : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
@@ -380,75 +309,25 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt; t++) {
         target_ctx *tc = &r->tg[t];
         const dtx_job_target *tj = tc->tj;
-        plan_ref plan;
-        dtx_anchor anchor;
-        int32_t *pin_idx = NULL;
-        double *pin_pos = NULL, t0 = run_wtime();
+        void *plan = NULL;
+        double t0 = run_wtime();
         int needed = 0;
         for (int s = 0; s < r->ns; s++)
             needed |= !RESULT(r, t, s)->finished;
         if (!needed)
             continue;
-        memset(&plan, 0, sizeof plan);
-        /* Factor (every rank: each needs the factor for its solves). */
-        if (tj->npins > 0) {
-            pin_idx = dtx_alloc((size_t)tj->npins, sizeof *pin_idx, 0);
-            pin_pos = dtx_alloc((size_t)tj->npins, 3 * sizeof *pin_pos, 0);
-            if (pin_idx && pin_pos)
-                for (int32_t i = 0; i < tj->npins; i++) {
-                    pin_idx[i] = dtx_weld_index(&tc->weld, tj->pins[i].vertex);
-                    memcpy(pin_pos + 3 * i, tj->pins[i].pos, 3 * sizeof *pin_pos);
-                }
-        }
-        anchor = tj->translation == DTX_TRANSLATION_FOLLOW
-                     ? DTX_ANCHOR_FOLLOW
-                     : (tj->translation == DTX_TRANSLATION_PINS ? DTX_ANCHOR_PINS
-                                                                : DTX_ANCHOR_FIXED);
-        if (r->job.method == DTX_METHOD_MULTICOMPONENT) {
-            dtx_mc_params mp;
-            dtx_mc_params_default(&mp);
-            mp.w_match = r->job.mc.w_match;
-            mp.w_orphan = r->job.mc.w_orphan;
-            mp.w_proximity = r->job.mc.w_proximity;
-            mp.lengths = (dtx_mc_lengths)r->job.mc.lengths;
-            mp.w_laplacian = r->job.mc.w_laplacian;
-            mp.eps_factor = r->job.mc.eps_factor;
-            mp.max_iter = r->job.mc.max_iter;
-            mp.tol = r->job.mc.tol;
-            st = dtx_mc_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, &mp,
-                                    anchor, pin_idx, pin_pos, tj->npins, &plan.mc, err);
-            if (st == DTX_OK) {
-                dtx_mc_info info;
-                dtx_mc_plan_info(plan.mc, &info);
-                run_say(r,
-                        "dtx: target %s: %d components, %d proximity edges with %lld vertex pairs, "
-                        "%d orphan triangles, %d orphan components",
-                        tj->name, (int)info.components, (int)info.proximity_edges,
-                        (long long)info.proximity_pairs, (int)info.orphan_triangles,
-                        (int)info.orphan_components);
-            }
-        } else if (r->job.method == DTX_METHOD_BIHARMONIC) {
-            st = bh_plan(r, tc, &plan, err);
-        } else if (r->job.method == DTX_METHOD_SPRINGS) {
-            st = springs_plan(r, tc, anchor, pin_idx, pin_pos, &plan, err);
-        } else {
-            st = dtx_sp04_plan_create(&r->src, &tc->mesh, tc->corr.pairs, tc->corr.npairs, anchor,
-                                      pin_idx, pin_pos, tj->npins, &plan.sp04, err);
-        }
+        st = target_plan(r, tc, &plan, err);
         if (st != DTX_OK)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tj->name, tj->file, tj->mesh);
-        free(pin_idx);
-        free(pin_pos);
         r->tm.factor += run_wtime() - t0;
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+        if ((st = run_agree(r->comm, st, err)) != DTX_OK) {
+            r->method->plan_free(&plan);
             goto done;
+        }
         for (int s = 0; s < r->ns && st == DTX_OK; s++)
             if (!RESULT(r, t, s)->finished)
-                st = transfer_result(r, t, s, &plan, &fb, err);
-        dtx_sp04_plan_free(&plan.sp04);
-        dtx_mc_plan_free(&plan.mc);
-        dtx_bh_plan_free(&plan.bh);
-        dtx_springs_plan_free(&plan.springs);
+                st = transfer_result(r, t, s, plan, &fb, err);
+        r->method->plan_free(&plan);
         if (st != DTX_OK)
             goto done;
     }
@@ -456,8 +335,7 @@ done:
     free(fb.Xs);
     free(fb.Xt);
     free(fb.res);
-    free(fb.sinfo);
-    free(fb.minfo);
+    free(fb.info);
     free(fb.fstats);
     return st;
 }

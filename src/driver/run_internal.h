@@ -26,6 +26,7 @@
 #include "output_lock.h"
 #include "progress.h"
 #include "run_schedule.h"
+#include "transfer.h"
 #include "weld_setup.h"
 
 #include <mpi.h>
@@ -102,6 +103,8 @@ typedef struct {
                   still spread over the ranks) */
     const dtx_run_opts *opts;
     dtx_job job;
+    const dtx_transfer_method *method; /* the job's method (transfer.h) */
+    dtx_transfer_params prm;           /* and its parameters */
     dtx_mesh src;
     dtx_weld_ctx src_weld; /* the source asset's vertices (src is welded) */
     hid_t src_file, out;
@@ -182,8 +185,6 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err);
 
 void run_stats_init(run_stats *s);
 void run_stats_add(run_stats *s, double v);
-/* Methods whose frames are iterative solves with per-frame figures. */
-int run_iterative_method(const dtx_job *job);
 void run_solves_init(solve_stats *s);
 /* Frame f's solve: into s, and as its frame_stats row. */
 void run_solves_add(solve_stats *s, int64_t f, int32_t iterations, int converged, int32_t inverted,

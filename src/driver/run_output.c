@@ -397,10 +397,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             char relsrc[4096];
             dtx_path_relative(r->job.source_file, r->job.output_file, relsrc, sizeof relsrc);
             snprintf(seqdesc, sizeof seqdesc, "%s:%s", relsrc, r->sq[s].path);
-            prov.method = r->job.method == DTX_METHOD_MULTICOMPONENT ? "multicomponent"
-                          : r->job.method == DTX_METHOD_BIHARMONIC   ? "biharmonic"
-                          : r->job.method == DTX_METHOD_SPRINGS      ? "springs"
-                                                                     : "sp04";
+            prov.method = r->method->name;
             prov.job = r->job.text;
             prov.parameters = params;
             prov.source_sequence = seqdesc;
@@ -412,7 +409,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
             rc->open = st == DTX_OK;
             if (st == DTX_OK) /* the source sequence's frame rate, when it has one */
                 st = dtx_h5_copy_fps(r->sq[s].seq.group, rc->res.group, err);
-            if (st == DTX_OK && run_iterative_method(&r->job))
+            if (st == DTX_OK && r->method->iterative) /* frame_stats */
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
         }
     }

@@ -49,13 +49,6 @@ static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
     MPI_Reduce(&mine->max, &all->max, 1, MPI_DOUBLE, MPI_MAX, 0, comm);
 }
 
-/* Methods whose frames are iterative solves with per-frame figures
- * (frame_stats in the output). */
-int run_iterative_method(const dtx_job *job)
-{
-    return job->method == DTX_METHOD_SPRINGS || job->method == DTX_METHOD_MULTICOMPONENT;
-}
-
 void run_solves_init(solve_stats *s)
 {
     memset(s, 0, sizeof *s);
@@ -152,7 +145,7 @@ void run_gather_results(run_state *r)
             stats_reduce(r->comm, &RESULT(r, t, s)->st, &all);
             if (r->rank == 0)
                 RESULT(r, t, s)->st = all;
-            if (run_iterative_method(&r->job)) {
+            if (r->method->iterative) {
                 solve_stats sv;
                 solves_reduce(r->comm, &RESULT(r, t, s)->sv, &sv);
                 if (r->rank == 0)

@@ -561,18 +561,7 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
     }
 
     /* ---- multicomponent parameters (defaults from the core) ---- */
-    {
-        dtx_mc_params d;
-        dtx_mc_params_default(&d);
-        job->mc.w_match = d.w_match;
-        job->mc.w_orphan = d.w_orphan;
-        job->mc.w_proximity = d.w_proximity;
-        job->mc.lengths = d.lengths;
-        job->mc.w_laplacian = d.w_laplacian;
-        job->mc.eps_factor = d.eps_factor;
-        job->mc.max_iter = d.max_iter;
-        job->mc.tol = d.tol;
-    }
+    dtx_mc_params_default(&job->mc);
     if (mc) {
         /* The paper's absolute lengths come with the paper's weight
          * unless w_proximity is given. */
@@ -606,9 +595,10 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         job->bh.eps = d.eps;
         job->bh.max_keypoints = d.max_keys;
         job->bh.training_frames = DEFAULT_TRAINING_FRAMES;
-        job->bh.lambda = d.skin.lambda;
-        job->bh.gamma_logr = d.skin.gamma_logr;
-        job->bh.gamma_s = d.skin.gamma_s;
+        dtx_bh_params_default(&job->bh.transfer);
+        job->bh.transfer.skin.lambda = d.skin.lambda;
+        job->bh.transfer.skin.gamma_logr = d.skin.gamma_logr;
+        job->bh.transfer.skin.gamma_s = d.skin.gamma_s;
     }
     if (bh) {
         if (cJSON_IsString(x = get(bh, "keypoints")))
@@ -623,27 +613,15 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         if (cJSON_IsNumber(x = get(bh, "training_frames")))
             job->bh.training_frames = (int32_t)x->valuedouble;
         if (cJSON_IsNumber(x = get(bh, "lambda")))
-            job->bh.lambda = x->valuedouble;
+            job->bh.transfer.skin.lambda = x->valuedouble;
         if (cJSON_IsNumber(x = get(bh, "gamma_logr")))
-            job->bh.gamma_logr = x->valuedouble;
+            job->bh.transfer.skin.gamma_logr = x->valuedouble;
         if (cJSON_IsNumber(x = get(bh, "gamma_s")))
-            job->bh.gamma_s = x->valuedouble;
+            job->bh.transfer.skin.gamma_s = x->valuedouble;
     }
 
     /* ---- springs parameters (defaults from the core) ---- */
-    {
-        dtx_springs_params d;
-        dtx_springs_params_default(&d);
-        job->springs.bending = d.bending;
-        job->springs.internal = d.internal;
-        job->springs.levels = d.levels;
-        job->springs.coarse_min = d.coarse_min;
-        job->springs.start_rest = d.start == DTX_SPRINGS_START_REST;
-        job->springs.max_iter = d.max_iter;
-        job->springs.tol = d.tol;
-        job->springs.coarse_max_iter = d.coarse_max_iter;
-        job->springs.coarse_tol = d.coarse_tol;
-    }
+    dtx_springs_params_default(&job->springs);
     if (spr) {
         if (cJSON_IsBool(x = get(spr, "bending")))
             job->springs.bending = cJSON_IsTrue(x);
@@ -654,7 +632,8 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         if (cJSON_IsNumber(x = get(spr, "coarse_min")))
             job->springs.coarse_min = (int32_t)x->valuedouble;
         if (cJSON_IsString(x = get(spr, "start")))
-            job->springs.start_rest = strcmp(x->valuestring, "rest") == 0;
+            job->springs.start = strcmp(x->valuestring, "rest") == 0 ? DTX_SPRINGS_START_REST
+                                                                     : DTX_SPRINGS_START_LINEAR;
         if (cJSON_IsNumber(x = get(spr, "max_iter")))
             job->springs.max_iter = (int)x->valuedouble;
         if (cJSON_IsNumber(x = get(spr, "tol")))
@@ -1133,7 +1112,7 @@ char *dtx_job_params_json(const dtx_job *job)
     if (job->method != DTX_METHOD_BIHARMONIC && job->method != DTX_METHOD_SPRINGS)
         sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
     if (job->method == DTX_METHOD_MULTICOMPONENT) {
-        const dtx_mc_job_params *q = &job->mc;
+        const dtx_mc_params *q = &job->mc;
         sb_printf(&b,
                   "{\"eps_factor\":%.17g,\"max_iter\":%d,\"proximity_lengths\":\"%s\","
                   "\"tol\":%.17g,\"w_laplacian\":%.17g,\"w_match\":%.17g,\"w_orphan\":%.17g,"
@@ -1148,8 +1127,8 @@ char *dtx_job_params_json(const dtx_job *job)
                   "{\"biharmonic\":{\"candidates\":%d,\"eps\":%.17g,\"gamma_logr\":%.17g,"
                   "\"gamma_s\":%.17g,\"keypoints\":\"%s\",\"lambda\":%.17g,\"max_keypoints\":%d,"
                   "\"training_frames\":%d},\"method\":\"biharmonic\"",
-                  (int)q->candidates, q->eps, q->gamma_logr, q->gamma_s,
-                  q->keypoints == DTX_BH_KEYS_AUTO ? "auto" : "markers", q->lambda,
+                  (int)q->candidates, q->eps, q->transfer.skin.gamma_logr, q->transfer.skin.gamma_s,
+                  q->keypoints == DTX_BH_KEYS_AUTO ? "auto" : "markers", q->transfer.skin.lambda,
                   (int)q->max_keypoints, (int)q->training_frames);
         /* The automatic key points are mapped through sp04's correspondence. */
         if (q->keypoints == DTX_BH_KEYS_AUTO)
@@ -1169,14 +1148,14 @@ char *dtx_job_params_json(const dtx_job *job)
         sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g}", p->w_identity,
                   p->w_smooth);
         if (job->method == DTX_METHOD_SPRINGS) {
-            const dtx_springs_job_params *q = &job->springs;
+            const dtx_springs_params *q = &job->springs;
             sb_printf(&b,
                       ",\"springs\":{\"bending\":%s,\"coarse_max_iter\":%d,\"coarse_min\":%d,"
                       "\"coarse_tol\":%.17g,\"internal\":%s,\"levels\":%d,\"max_iter\":%d,"
                       "\"start\":\"%s\",\"tol\":%.17g}",
                       q->bending ? "true" : "false", q->coarse_max_iter, (int)q->coarse_min,
                       q->coarse_tol, q->internal ? "true" : "false", q->levels, q->max_iter,
-                      q->start_rest ? "rest" : "linear", q->tol);
+                      q->start == DTX_SPRINGS_START_REST ? "rest" : "linear", q->tol);
         }
     }
     sb_printf(&b, "}");
@@ -1185,4 +1164,21 @@ char *dtx_job_params_json(const dtx_job *job)
         return NULL;
     }
     return b.buf;
+}
+
+void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p)
+{
+    static const dtx_transfer_kind kinds[] = {
+        [DTX_METHOD_SP04] = DTX_TRANSFER_SP04,
+        [DTX_METHOD_MULTICOMPONENT] = DTX_TRANSFER_MULTICOMPONENT,
+        [DTX_METHOD_SPRINGS] = DTX_TRANSFER_SPRINGS,
+        [DTX_METHOD_BIHARMONIC] = DTX_TRANSFER_BIHARMONIC,
+    };
+    dtx_transfer_params_default(p, kinds[job->method]);
+    if (job->method == DTX_METHOD_MULTICOMPONENT)
+        p->u.mc = job->mc;
+    else if (job->method == DTX_METHOD_SPRINGS)
+        p->u.springs = job->springs;
+    else if (job->method == DTX_METHOD_BIHARMONIC)
+        p->u.bh = job->bh.transfer;
 }

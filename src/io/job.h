@@ -24,6 +24,7 @@
 #define DTX_JOB_H
 
 #include "status.h"
+#include "transfer.h"
 
 #include <stdint.h>
 
@@ -81,13 +82,6 @@ typedef struct {
     double max_angle_deg;  /* [90] normals must differ by less than this */
 } dtx_sp04_params;
 
-/* multicomponent transfer parameters (defaults: dtx_mc_params_default). */
-typedef struct {
-    double w_match, w_orphan, w_proximity, w_laplacian, eps_factor, tol;
-    int lengths; /* "proximity_lengths": a dtx_mc_lengths (dtx_core.h) */
-    int max_iter;
-} dtx_mc_job_params;
-
 /* Where the biharmonic method's key points come from. */
 typedef enum {
     DTX_BH_KEYS_MARKERS = 0, /* each target's markers are its key points */
@@ -102,21 +96,10 @@ typedef struct {
     double eps;              /* [0.03] auto: stop adding at this error */
     int32_t max_keypoints;   /* [40] auto: at most this many key points */
     int32_t training_frames; /* [32] frames for the clustering and the selection */
-    double lambda, gamma_logr, gamma_s; /* [0.5, 1, 0.1] fit and clustering weights */
+    dtx_bh_params transfer;  /* the transfer's: skin.lambda, skin.gamma_logr,
+                                skin.gamma_s [0.5, 1, 0.1] fit and clustering
+                                weights from the job, the rest core's defaults */
 } dtx_bh_job_params;
-
-/* springs parameters (defaults in brackets: dtx_springs_params_default;
- * see the schema for their meaning). */
-typedef struct {
-    int bending, internal;      /* [1, 1] */
-    int levels;                 /* [4] */
-    int32_t coarse_min;         /* [150] */
-    int start_rest;             /* [0] 1: start "rest", 0: "linear" */
-    int max_iter;               /* [100] */
-    double tol;                 /* [1e-8] */
-    int coarse_max_iter;        /* [50] */
-    double coarse_tol;          /* [1e-5] */
-} dtx_springs_job_params;
 
 typedef struct {
     int version;          /* dtx_job */
@@ -140,9 +123,9 @@ typedef struct {
     int collective_io;    /* [0] frames written with collective MPI-IO (else independent) */
 
     dtx_sp04_params sp04;  /* also the multicomponent correspondence's weights */
-    dtx_mc_job_params mc;
+    dtx_mc_params mc;      /* multicomponent (core's struct and defaults) */
     dtx_bh_job_params bh;
-    dtx_springs_job_params springs;
+    dtx_springs_params springs; /* springs (core's struct and defaults) */
 } dtx_job;
 
 /* Reads, parses and validates the job at path.  On failure err->msg names
@@ -191,6 +174,10 @@ char *dtx_job_params_json(const dtx_job *job);
  * correspondence); keys sorted by byte value at every level, no spaces, numbers
  * printed with %.17g (needs the default "C" LC_NUMERIC locale).  NULL when
  * out of memory or job is NULL.  Thread-safe.) */
+
+/* The job's method as core's tagged parameters (transfer.h): its kind, and
+ * the job's values over that method's defaults. */
+void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p);
 
 /* The job schema, schemas/job.schema.json, as built into the binary
  * (job_schema_text.c) so that dtx works without the source tree: a

@@ -325,7 +325,7 @@ static void test_defaults(void)
                    "/data/jobs", 0, &job, err),
              err);
     CHECK_EQ_INT(job.springs.levels, 2);
-    CHECK_EQ_INT(job.springs.start_rest, 1);
+    CHECK_EQ_INT(job.springs.start, DTX_SPRINGS_START_REST);
     CHECK_EQ_INT(job.springs.bending, 0);
     CHECK_EQ_INT(job.springs.internal, 1);
     CHECK(job.springs.tol == 1e-6);

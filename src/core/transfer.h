@@ -1,0 +1,118 @@
+/*
+ * transfer.h: the family of transfer methods behind one interface.
+ *
+ * Each method (sp04, multicomponent, springs, biharmonic) is a member of
+ * the family: a table of function pointers (dtx_transfer_method) that its
+ * own file provides, wrapping that method's plan_create / apply / free.  A
+ * caller picks the table once (dtx_transfer_method_of) and then calls
+ * through it without knowing which member it has: precompute a plan per
+ * target, apply it to blocks of frames, free it.  Adding a method touches
+ * its own file, this header's kind, union and extern, and the lookup in
+ * transfer.c (and, for a job file to name it, io's job parser).
+ *
+ * Every apply reports one dtx_frame_info per frame; fields a method does
+ * not have are -1 (the residual every method has).
+ */
+#ifndef DTX_TRANSFER_H
+#define DTX_TRANSFER_H
+
+#include "dtx_core.h"
+#include "springs.h"
+#include "transfer_bh.h"
+
+#include <stddef.h>
+#include <stdint.h>
+
+/* The members of the family, the tag of dtx_transfer_params. */
+typedef enum {
+    DTX_TRANSFER_SP04 = 0,
+    DTX_TRANSFER_MULTICOMPONENT,
+    DTX_TRANSFER_SPRINGS,
+    DTX_TRANSFER_BIHARMONIC,
+    DTX_TRANSFER_KINDS
+} dtx_transfer_kind;
+
+/* A method's own parameters, tagged by kind (sp04 has none). */
+typedef struct {
+    dtx_transfer_kind kind;
+    union {
+        dtx_mc_params mc;           /* DTX_TRANSFER_MULTICOMPONENT */
+        dtx_springs_params springs; /* DTX_TRANSFER_SPRINGS */
+        dtx_bh_params bh;           /* DTX_TRANSFER_BIHARMONIC */
+    } u;
+} dtx_transfer_params;
+
+/* kind and that method's defaults (dtx_mc_params_default etc.). */
+void dtx_transfer_params_default(dtx_transfer_params *p, dtx_transfer_kind kind);
+
+/* What a plan is built from.  Each method reads the fields it names and
+ * ignores the others (which may be NULL / 0).  Nothing is kept: a plan
+ * copies what it needs. */
+typedef struct {
+    const dtx_mesh *src, *tgt; /* rest meshes (all methods) */
+    const int32_t *pairs;      /* sp04, multicomponent: npairs x 2 (source */
+    int64_t npairs;            /*   triangle, target triangle) */
+    const double *proxy;       /* springs: the source deformed onto the target
+                                  (nv_src x 3) when the target's connectivity
+                                  differs, else NULL */
+    const int32_t *src_keys;   /* biharmonic: nkeys key points on each mesh */
+    const int32_t *tgt_keys;
+    int32_t nkeys;
+    int32_t ntrain;        /* biharmonic: training frames Xtrain */
+    const double *Xtrain;  /*   (ntrain x nv_src x 3, NULL when 0) */
+    dtx_anchor anchor;     /* sp04, multicomponent, springs; biharmonic: */
+    const int32_t *pins;   /*   DTX_ANCHOR_FIXED keeps each frame's centroid */
+    const double *pin_pos; /*   at the target's rest centroid */
+    int32_t npins;         /* pins: npins vertices at pin_pos (npins x 3) */
+} dtx_transfer_inputs;
+
+/* One frame's figures from an apply; -1 where a method has none. */
+typedef struct {
+    double residual;    /* the method's residual (see its header); NaN for a
+                           frame with non-finite input */
+    int32_t iterations; /* solves on the finest level (iterative methods) */
+    int32_t converged;  /* 1 when the stopping test was met, 0 when not */
+    int32_t inverted;   /* inverted target triangles (springs) */
+} dtx_frame_info;
+
+/* One member of the family.  plan is the method's own (opaque) plan. */
+typedef struct dtx_transfer_method {
+    const char *name;       /* as in a job file: "sp04", "multicomponent", ... */
+    dtx_transfer_kind kind; /* the tag its parameters carry */
+    int iterative;          /* 1: frame infos carry iterations and converged */
+    int32_t solve_group;    /* frames per group for a caller that splits a
+                               sequence (ranks, blocks, chunks): sp04's solve
+                               group, so that no group is partly filled; 1 for
+                               springs, whose frames are independent and
+                               expensive, so that few frames still spread */
+
+    /* Precompute for one target; prm->kind must be this method's kind.
+     * Errors as the method's own plan_create. */
+    dtx_status (*plan_create)(const dtx_transfer_inputs *in, const dtx_transfer_params *prm,
+                              void **plan, dtx_error *err);
+    /* Transfers nframes frames Xs (nframes x nv_src x 3) into Xt (nframes x
+     * nv_tgt x 3, caller-allocated); info: nframes entries.  Per-call
+     * scratch is kept in the plan and only grows, so calls with a fixed
+     * block size allocate once.  Not thread-safe on one plan. */
+    dtx_status (*apply)(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                        dtx_frame_info *info, dtx_error *err);
+    /* Frees *plan (NULL allowed) and sets it to NULL. */
+    void (*plan_free)(void **plan);
+    /* What the plan holds, for a report: lines separated by '\n' (no final
+     * one) into buf (size bytes); "" when the method has nothing to say. */
+    void (*describe)(const void *plan, char *buf, size_t size);
+} dtx_transfer_method;
+
+extern const dtx_transfer_method dtx_method_sp04;           /* transfer_sp04.c */
+extern const dtx_transfer_method dtx_method_multicomponent; /* transfer_mc.c */
+extern const dtx_transfer_method dtx_method_springs;        /* springs.c */
+extern const dtx_transfer_method dtx_method_biharmonic;     /* transfer_bh.c */
+
+/* The table of a kind (NULL for an unknown one). */
+const dtx_transfer_method *dtx_transfer_method_of(dtx_transfer_kind kind);
+
+/* For the methods' adapters: makes *buf hold at least n elements of size
+ * bytes (*cap counts them), keeping it when it does.  DTX_ENOMEM. */
+dtx_status dtx_transfer_scratch(void **buf, int64_t *cap, int64_t n, size_t size, dtx_error *err);
+
+#endif /* DTX_TRANSFER_H */
