@@ -164,12 +164,11 @@ done:
     return st;
 }
 
-/* The programme of handle k (see the file comment).  Writes x into column
- * k of W and the unconstrained minimiser (the first iterate) into column k
- * of U. */
+/* The programme of handle k (see the file comment).  Writes x, clamped
+ * to [0, 1], into wk (nv). */
 static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *handles, int32_t m,
                                int32_t k, int max_iter, double tol_lambda, thread_ws *w,
-                               double *W, double *U, int *iterations, int *converged)
+                               double *wk, int *iterations, int *converged)
 {
     int it;
     dtx_status st;
@@ -189,9 +188,6 @@ static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *hand
         st = solve_free(Q, nv, w);
         if (st != DTX_OK)
             return st;
-        if (it == 1)
-            for (int32_t i = 0; i < nv; i++)
-                U[(size_t)i * m + k] = w->x[i];
 
         /* The primal-dual update.  idx[i] >= 0 still tells which vertices
          * were free in the solve just done. */
@@ -250,21 +246,22 @@ static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *hand
     }
     *iterations = it > max_iter ? max_iter : it;
     for (int32_t i = 0; i < nv; i++)
-        W[(size_t)i * m + k] = w->x[i] < 0.0 ? 0.0 : w->x[i] > 1.0 ? 1.0 : w->x[i];
+        wk[i] = w->x[i] < 0.0 ? 0.0 : w->x[i] > 1.0 ? 1.0 : w->x[i];
     return DTX_OK;
 }
 
-dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
-                   const dtx_bbw_params *prm, double *W, dtx_bbw_info *info, dtx_error *err)
+dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t m, int32_t k0,
+                           int32_t k1, const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                           dtx_error *err)
 {
     dtx__biharmonic sys;
     dtx_bbw_params defaults;
     dtx_bbw_info inf;
     thread_ws *ws = NULL;
-    double *U = NULL, tol_lambda = 0.0;
+    double tol_lambda = 0.0;
     int *iters = NULL, *conv = NULL;
     int nthreads = omp_get_max_threads();
-    int32_t failed = -1, nv;
+    int32_t failed = -1, nv, n = k1 - k0;
     dtx_status st;
 
     memset(&inf, 0, sizeof inf);
@@ -277,13 +274,16 @@ dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
     if (prm->max_iter < 1)
         return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: max_iter %d (must be "
                           ">= 1)", prm->max_iter);
-    if (!W)
+    if (!Wk)
         return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: no output array");
+    if (k0 < 0 || k1 < k0 || k1 > m)
+        return dtx_seterr(err, DTX_ERANGE, "bounded biharmonic weights: handles %d to %d of %d",
+                          (int)k0, (int)k1, (int)m);
     st = dtx__biharmonic_build(mesh, &sys, err);
     if (st != DTX_OK)
         return st;
     st = dtx__check_handles(&sys, handles, m, err);
-    if (st != DTX_OK)
+    if (st != DTX_OK || n == 0)
         goto done;
     nv = sys.nv;
     inf.thin_triangles = sys.nthin;
@@ -295,26 +295,25 @@ dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
     }
     tol_lambda *= TOL_LAMBDA;
 
-    if (nthreads > m)
-        nthreads = m;
+    if (nthreads > n)
+        nthreads = n;
     ws = dtx_alloc((size_t)nthreads, sizeof *ws, 1);
-    U = dtx_alloc((size_t)nv * (size_t)m, sizeof *U, 0);
-    iters = dtx_alloc((size_t)m, sizeof *iters, 1);
-    conv = dtx_alloc((size_t)m, sizeof *conv, 1);
-    if (!ws || !U || !iters || !conv)
+    iters = dtx_alloc((size_t)n, sizeof *iters, 1);
+    conv = dtx_alloc((size_t)n, sizeof *conv, 1);
+    if (!ws || !iters || !conv)
         goto nomem;
     for (int t = 0; t < nthreads; t++)
         if (!ws_alloc(&ws[t], nv))
             goto nomem;
 
     /* One handle per iteration; each thread uses its own CHOLMOD workspace,
-     * and nothing else is shared but the read-only Q and disjoint columns
-     * of W and U. */
+     * and nothing else is shared but the read-only Q and disjoint rows of
+     * Wk. */
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads)
-    for (int32_t k = 0; k < m; k++) {
+    for (int32_t k = k0; k < k1; k++) {
         thread_ws *w = &ws[omp_get_thread_num()];
-        dtx_status s = solve_handle(&sys.Q, nv, handles, m, k, prm->max_iter, tol_lambda, w, W,
-                                    U, &iters[k], &conv[k]);
+        dtx_status s = solve_handle(&sys.Q, nv, handles, m, k, prm->max_iter, tol_lambda, w,
+                                    Wk + (size_t)(k - k0) * nv, &iters[k - k0], &conv[k - k0]);
         if (s != DTX_OK) {
 #pragma omp critical(dtx_bbw_error)
             if (failed < 0 || k < failed) {
@@ -326,28 +325,70 @@ dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
     }
     if (failed >= 0)
         goto done;
-
-    for (int32_t k = 0; k < m; k++) {
+    for (int32_t k = 0; k < n; k++) {
         inf.iterations_max = iters[k] > inf.iterations_max ? iters[k] : inf.iterations_max;
         inf.iterations_total += iters[k];
         inf.not_converged += !conv[k];
     }
-    /* Partition of unity. */
-    inf.sum_min = INFINITY;
-    inf.sum_max = -INFINITY;
+    if (info)
+        *info = inf;
+    st = DTX_OK;
+    goto done;
+
+nomem:
+    st = dtx_seterr(err, DTX_ENOMEM, "out of memory for the bounded biharmonic weights of %d "
+                    "handles on %d vertices", (int)n, (int)sys.nv);
+done:
+    if (ws)
+        for (int t = 0; t < nthreads; t++)
+            ws_free(&ws[t]);
+    free(ws);
+    free(iters);
+    free(conv);
+    dtx__biharmonic_free(&sys);
+    return st;
+}
+
+dtx_status dtx_bbw_normalise(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                             const double *Wk, const dtx_bbw_params *prm, double *W,
+                             dtx_bbw_info *info, dtx_error *err)
+{
+    dtx_bbw_params defaults;
+    dtx_bbw_incr *unb = NULL;
+    int32_t nv = mesh ? mesh->nv : 0, low = 0;
+    double smin = INFINITY, smax = -INFINITY;
+    dtx_status st = DTX_OK;
+
+    if (!prm) {
+        dtx_bbw_params_default(&defaults);
+        prm = &defaults;
+    }
+    if (!mesh || !handles || !Wk || !W || m < 1)
+        return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: missing arguments");
+    for (int32_t i = 0; i < nv; i++) {
+        double s = 0.0;
+        for (int32_t k = 0; k < m; k++)
+            s += Wk[(size_t)k * nv + i];
+        smin = fmin(smin, s);
+        smax = fmax(smax, s);
+        low += s < DTX_BBW_MIN_SUM;
+    }
+    /* Rows whose sum is (nearly) 0 take the clamped unbounded weights,
+     * which sum to >= max_k u_k >= 1/m: one more factorisation, only when
+     * such a row exists. */
+    if (low > 0 && (st = dtx_bbw_incr_create(mesh, handles, m, &unb, err)) != DTX_OK)
+        return st;
     for (int32_t i = 0; i < nv; i++) {
         double *row = W + (size_t)i * m, s = 0.0;
-        for (int32_t k = 0; k < m; k++)
+        for (int32_t k = 0; k < m; k++) {
+            row[k] = Wk[(size_t)k * nv + i];
             s += row[k];
-        inf.sum_min = fmin(inf.sum_min, s);
-        inf.sum_max = fmax(inf.sum_max, s);
+        }
         if (s < DTX_BBW_MIN_SUM) {
-            /* The clamped unbounded weights sum to >= max_k u_k >= 1/m. */
-            inf.low_sum++;
+            const double *u = dtx_bbw_incr_weights(unb) + (size_t)i * m;
             s = 0.0;
             for (int32_t k = 0; k < m; k++) {
-                double u = U[(size_t)i * m + k];
-                row[k] = u < 0.0 ? 0.0 : u > 1.0 ? 1.0 : u;
+                row[k] = u[k] < 0.0 ? 0.0 : u[k] > 1.0 ? 1.0 : u[k];
                 s += row[k];
             }
         }
@@ -359,23 +400,34 @@ dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
     for (int32_t j = 0; j < m; j++)
         for (int32_t k = 0; k < m; k++)
             W[(size_t)handles[j] * m + k] = j == k ? 1.0 : 0.0;
-    if (info)
-        *info = inf;
-    st = DTX_OK;
-    goto done;
+    dtx_bbw_incr_free(&unb);
+    if (info) {
+        info->low_sum = low;
+        info->sum_min = smin;
+        info->sum_max = smax;
+    }
+    return DTX_OK;
+}
 
-nomem:
-    st = dtx_seterr(err, DTX_ENOMEM, "out of memory for the bounded biharmonic weights of %d "
-                    "handles on %d vertices", (int)m, (int)sys.nv);
-done:
-    if (ws)
-        for (int t = 0; t < nthreads; t++)
-            ws_free(&ws[t]);
-    free(ws);
-    free(U);
-    free(iters);
-    free(conv);
-    dtx__biharmonic_free(&sys);
+dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                   const dtx_bbw_params *prm, double *W, dtx_bbw_info *info, dtx_error *err)
+{
+    double *Wk;
+    dtx_status st;
+    if (info)
+        memset(info, 0, sizeof *info);
+    if (!W)
+        return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: no output array");
+    if (!mesh || m < 1 || !handles)
+        return dtx_bbw_handles(mesh, handles, m, 0, m < 0 ? 0 : m, prm, W, info, err);
+    Wk = dtx_alloc((size_t)mesh->nv, (size_t)m * sizeof *Wk, 0);
+    if (!Wk)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory for the bounded biharmonic weights of "
+                          "%d handles on %d vertices", (int)m, (int)mesh->nv);
+    st = dtx_bbw_handles(mesh, handles, m, 0, m, prm, Wk, info, err);
+    if (st == DTX_OK)
+        st = dtx_bbw_normalise(mesh, handles, m, Wk, prm, W, info, err);
+    free(Wk);
     return st;
 }
 

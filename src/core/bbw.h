@@ -70,7 +70,8 @@ typedef struct {
 
 /* A row whose per-handle weights sum below this is replaced, before
  * normalising, by the clamped unbounded weights of that vertex (whose sum
- * is >= 1/m), so normalisation never divides by (nearly) 0. */
+ * is >= 1/m, computed for the purpose), so normalisation never divides by
+ * (nearly) 0. */
 #define DTX_BBW_MIN_SUM 1e-6
 
 /* Sets the defaults: max_iter 100, normalise 1. */
@@ -101,6 +102,32 @@ void dtx_bbw_params_default(dtx_bbw_params *prm);
  * Errors: those in the file comment, DTX_ENOMEM, DTX_ESOLVE. */
 dtx_status dtx_bbw(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
                    const dtx_bbw_params *prm, double *W, dtx_bbw_info *info, dtx_error *err);
+
+/* dtx_bbw in two steps, so that the handles can be shared out (over MPI
+ * ranks, say) and the results put together:
+ *
+ * dtx_bbw_handles solves the programmes of handles k0..k1-1 (0 <= k0 <=
+ * k1 <= m) of the set handles[0..m-1] and writes each solution, clamped to
+ * [0, 1] and not normalised, as a row of Wk ((k1 - k0) x nv, handle-major:
+ * Wk[(k - k0) * nv + i] is handle k's weight at vertex i).  info (may be
+ * NULL) receives the iteration counts and thin_triangles of these handles
+ * (the sums are dtx_bbw_normalise's).  Threads, errors and memory as
+ * dtx_bbw; a handle's row is the same bits whoever computes it.
+ *
+ * dtx_bbw_normalise takes all m rows (Wk, m x nv handle-major) and writes
+ * W (nv x m) as dtx_bbw does: rows divided by their sums (when
+ * prm->normalise), a row summing below DTX_BBW_MIN_SUM replaced by the
+ * clamped unbounded weights of that vertex (computed only then, one
+ * factorisation: dtx_bbw_incr_create), exact at the handles.  info (may be
+ * NULL): its low_sum, sum_min and sum_max are set, the rest left alone.
+ * dtx_bbw(mesh, handles, m, prm, W, info) is dtx_bbw_handles over [0, m)
+ * then dtx_bbw_normalise, bit for bit. */
+dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t m, int32_t k0,
+                           int32_t k1, const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                           dtx_error *err);
+dtx_status dtx_bbw_normalise(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                             const double *Wk, const dtx_bbw_params *prm, double *W,
+                             dtx_bbw_info *info, dtx_error *err);
 
 /* Clamps every entry of W (nv x m) to [0, 1] and divides each row by its
  * sum, in place: the clamped-and-renormalised unbounded weights, an

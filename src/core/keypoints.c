@@ -39,6 +39,7 @@ void dtx_kp_result_free(dtx_kp_result *res)
     free(res->keys);
     free(res->candidates);
     free(res->trace);
+    free(res->weights);
     memset(res, 0, sizeof *res);
 }
 
@@ -433,9 +434,17 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     /* The final set as the paper evaluates it. */
     if (c.exact)
         res->error_exact = res->error;
-    else if ((st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error_exact,
-                              err)) != DTX_OK)
-        goto fail;
+    else {
+        if ((st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error_exact,
+                             err)) != DTX_OK)
+            goto fail;
+        res->weights = dtx_alloc((size_t)c.nv, (size_t)res->count * sizeof *res->weights, 0);
+        if (!res->weights) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+            goto fail;
+        }
+        memcpy(res->weights, ws[0].W, (size_t)c.nv * (size_t)res->count * sizeof *res->weights);
+    }
     /* The closing call: a part that failed after the last round meets it. */
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, NULL, 0, 1, err)) != DTX_OK) {
         reduce_failed = 1;

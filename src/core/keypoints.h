@@ -115,6 +115,10 @@ typedef struct {
     int64_t evaluations;    /* candidate sets evaluated by this part */
     int64_t failed;         /* evaluations that failed (singular fit): error +inf */
     double radius;          /* R, the error's length unit */
+    double *weights;        /* the final set's bounded biharmonic weights on the
+                               source (nv x count, as dtx_bbw gives them; owned),
+                               kept from the closing evaluation; NULL in exact
+                               mode */
 } dtx_kp_result;
 
 /* The defaults above (skin: dtx_skin_params_default), one part. */

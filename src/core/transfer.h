@@ -58,6 +58,8 @@ typedef struct {
     const int32_t *src_keys;   /* biharmonic: nkeys key points on each mesh */
     const int32_t *tgt_keys;
     int32_t nkeys;
+    const double *src_weights; /* biharmonic: the bounded biharmonic weights of */
+    const double *tgt_weights; /*   the key points (nv x nkeys), or NULL: computed */
     int32_t ntrain;        /* biharmonic: training frames Xtrain */
     const double *Xtrain;  /*   (ntrain x nv_src x 3, NULL when 0) */
     dtx_anchor anchor;     /* sp04, multicomponent, springs; biharmonic: */

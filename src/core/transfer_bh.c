@@ -118,6 +118,17 @@ dtx_status dtx_bh_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
                               int32_t ntrain, const double *Xtrain, dtx_bh_plan **out,
                               dtx_error *err)
 {
+    return dtx_bh_plan_create_weights(src, tgt, src_keys, tgt_keys, m, prm, ntrain, Xtrain, NULL,
+                                      NULL, out, err);
+}
+
+dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
+                                      const int32_t *src_keys, const int32_t *tgt_keys, int32_t m,
+                                      const dtx_bh_params *prm, int32_t ntrain,
+                                      const double *Xtrain, const double *src_weights,
+                                      const double *tgt_weights, dtx_bh_plan **out,
+                                      dtx_error *err)
+{
     dtx_bh_plan *p;
     dtx_status st;
     double *Ws = NULL, *feat = NULL, t0;
@@ -158,15 +169,20 @@ dtx_status dtx_bh_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
         goto fail;
     }
     t0 = omp_get_wtime();
-    if ((st = dtx_bbw(src, src_keys, m, NULL, Ws, NULL, err)) != DTX_OK) {
+    if (src_weights)
+        memcpy(Ws, src_weights, (size_t)src->nv * (size_t)m * sizeof *Ws);
+    else if ((st = dtx_bbw(src, src_keys, m, NULL, Ws, NULL, err)) != DTX_OK) {
         dtx_error_prefix(err, "biharmonic: source weights");
         goto fail;
     }
-    if ((st = dtx_bbw(tgt, tgt_keys, m, NULL, p->Wt, NULL, err)) != DTX_OK) {
+    if (tgt_weights)
+        memcpy(p->Wt, tgt_weights, (size_t)tgt->nv * (size_t)m * sizeof *p->Wt);
+    else if ((st = dtx_bbw(tgt, tgt_keys, m, NULL, p->Wt, NULL, err)) != DTX_OK) {
         dtx_error_prefix(err, "biharmonic: target weights");
         goto fail;
     }
     p->info.weights_seconds = omp_get_wtime() - t0;
+    p->info.weights_given = src_weights && tgt_weights;
     if ((st = align(p, src, tgt, src_keys, tgt_keys, m, err)) != DTX_OK)
         goto fail;
     {
@@ -292,8 +308,9 @@ static dtx_status bh_method_create(const dtx_transfer_inputs *in, const dtx_tran
     *plan = NULL;
     if (!p)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    st = dtx_bh_plan_create(in->src, in->tgt, in->src_keys, in->tgt_keys, in->nkeys, &prm->u.bh,
-                            in->ntrain, in->Xtrain, &p->plan, err);
+    st = dtx_bh_plan_create_weights(in->src, in->tgt, in->src_keys, in->tgt_keys, in->nkeys,
+                                    &prm->u.bh, in->ntrain, in->Xtrain, in->src_weights,
+                                    in->tgt_weights, &p->plan, err);
     *plan = p;
     if (st != DTX_OK) {
         bh_method_free(plan);
@@ -331,10 +348,16 @@ static void bh_method_describe(const void *plan, char *buf, size_t size)
     const bh_method_plan *p = plan;
     dtx_bh_info info;
     dtx_bh_plan_info(p->plan, &info);
-    snprintf(buf, size,
-             "%d key points, %d rotation clusters, biharmonic weights %.2f s; key points %.2f%% "
-             "of the source diagonal apart after aligning the target",
-             (int)info.keys, (int)info.clusters, info.weights_seconds, 100 * info.align_rms);
+    if (info.weights_given)
+        snprintf(buf, size,
+                 "%d key points, %d rotation clusters; key points %.2f%% of the source diagonal "
+                 "apart after aligning the target",
+                 (int)info.keys, (int)info.clusters, 100 * info.align_rms);
+    else
+        snprintf(buf, size,
+                 "%d key points, %d rotation clusters, biharmonic weights %.2f s; key points "
+                 "%.2f%% of the source diagonal apart after aligning the target",
+                 (int)info.keys, (int)info.clusters, info.weights_seconds, 100 * info.align_rms);
 }
 
 const dtx_transfer_method dtx_method_biharmonic = {

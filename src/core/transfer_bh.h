@@ -52,6 +52,7 @@ typedef struct {
     int32_t keys;            /* m */
     int32_t clusters;
     double weights_seconds;  /* both meshes' bounded biharmonic weights */
+    int weights_given;       /* 1: both were given (dtx_bh_plan_create_weights) */
     double align_scale;      /* the target-to-source similarity's scale */
     double align_rms;        /* RMS distance of the aligned target key points
                                 to the source key points, / source diagonal */
@@ -68,6 +69,16 @@ dtx_status dtx_bh_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
                               const int32_t *tgt_keys, int32_t m, const dtx_bh_params *prm,
                               int32_t ntrain, const double *Xtrain, dtx_bh_plan **out,
                               dtx_error *err);
+/* The same with the bounded biharmonic weights of either mesh given
+ * (src_weights nv_src x m, tgt_weights nv_tgt x m, as dtx_bbw computes
+ * them for src_keys and tgt_keys, copied), or NULL to have them computed:
+ * for a caller that computed them already, or shared the work out. */
+dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
+                                      const int32_t *src_keys, const int32_t *tgt_keys, int32_t m,
+                                      const dtx_bh_params *prm, int32_t ntrain,
+                                      const double *Xtrain, const double *src_weights,
+                                      const double *tgt_weights, dtx_bh_plan **out,
+                                      dtx_error *err);
 void dtx_bh_plan_free(dtx_bh_plan **plan);
 void dtx_bh_plan_info(const dtx_bh_plan *plan, dtx_bh_info *info);
 int32_t dtx_bh_plan_nv_src(const dtx_bh_plan *plan);

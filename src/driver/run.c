@@ -83,6 +83,7 @@ static void release(run_state *r)
     dtx_weld_ctx_free(&r->src_weld);
     free(r->Xtrain);
     dtx_kp_result_free(&r->kp);
+    run_bh_weights_free(r);
     free(r->tg);
     free(r->sq);
     free(r->rs);

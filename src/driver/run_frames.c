@@ -256,6 +256,12 @@ static dtx_status target_plan(run_state *r, const target_ctx *tc, void **plan, d
     in.nkeys = tc->keys.n;
     in.ntrain = r->ntrain;
     in.Xtrain = r->Xtrain;
+    if (r->prm.kind == DTX_TRANSFER_BIHARMONIC &&
+        (st = run_bh_weights(r, tc, &in.src_weights, &in.tgt_weights, err)) != DTX_OK) {
+        free(pin_idx);
+        free(pin_pos);
+        return st;
+    }
     in.anchor =
         tj->translation == DTX_TRANSLATION_FOLLOW
             ? DTX_ANCHOR_FOLLOW

@@ -124,6 +124,10 @@ typedef struct {
     int32_t ntrain;
     double *Xtrain;
     dtx_kp_result kp;
+    /* and the bounded biharmonic weights (run_weights.c): the source's for
+     * the key points bh_src_keys (bh_src_m of them), the current target's */
+    double *bh_Ws, *bh_Wt;
+    int32_t *bh_src_keys, bh_src_m;
     int64_t frames_todo, frames_skipped, frames_done; /* global, known on rank 0 */
     dtx_progress prog;
 } run_state;
@@ -174,6 +178,15 @@ dtx_status run_finish_output(run_state *r, dtx_error *err);
 dtx_status run_select_keypoints(run_state *r, dtx_error *err);
 dtx_status run_correspondences(run_state *r, dtx_error *err);
 dtx_status run_target_keys(run_state *r, dtx_error *err);
+
+/* run_weights.c: method biharmonic's bounded biharmonic weights of a
+ * target's key points on the source (*Ws) and on the target (*Wt), both
+ * nv x m and owned by r (valid until the next call or the end of the run):
+ * the handles shared out over the ranks, the source's reused when they are
+ * the selection's or the previous target's.  Collective. */
+dtx_status run_bh_weights(run_state *r, const target_ctx *tc, const double **Ws,
+                          const double **Wt, dtx_error *err);
+void run_bh_weights_free(run_state *r);
 
 /* run_frames.c: the frame loop (phase 6). */
 
