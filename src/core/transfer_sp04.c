@@ -773,14 +773,9 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
             p->unrefrows[k++] = p->trow[v];
     cholmod_free_sparse(&K, &p->cc);
     cholmod_free_sparse(&Lfull, &p->cc);
-    free(comp);
-    free(tmult);
-    free(used);
-    free(Vinv);
-    free(G);
-    free(N);
     *out = p;
-    return DTX_OK;
+    p = NULL; /* the caller's now */
+    goto done;
 
 nomem:
     st = dtx_seterr(err, DTX_ENOMEM, "out of memory creating the transfer plan");
@@ -789,6 +784,7 @@ fail:
         cholmod_free_sparse(&K, &p->cc);
         cholmod_free_sparse(&Lfull, &p->cc);
     }
+done:
     free(comp);
     free(tmult);
     free(used);
