@@ -12,6 +12,7 @@
 #include "h5layout.h"
 #include "h5guard.h"
 #include "h5mesh_attrs.h"
+#include "h5util.h"
 #include "file_util.h"
 #include "write_reason.h"
 
@@ -34,15 +35,6 @@
 /* Chunk cache: room for one chunk, within these bounds. */
 #define CACHE_MIN_BYTES ((size_t)1 << 20)
 #define CACHE_MAX_BYTES ((size_t)256 << 20)
-/* gzip cannot compress better than about 1032:1. */
-#define GZIP_MAX_RATIO 1100u
-
-#define CLOSE_ID(fn, id)                                                                       \
-    do {                                                                                       \
-        if ((id) > 0)                                                                          \
-            (void)fn(id);                                                                      \
-        (id) = H5I_INVALID_HID;                                                                \
-    } while (0)
 
 /* ======================================================== error messages */
 
@@ -1124,7 +1116,7 @@ static dtx_status check_storage(hid_t file, hid_t dset, const char *path, const 
         st = h5err(err, file, path, "cannot inspect the dataset's filters");
         goto done;
     }
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > stored + 64 : need > stored) {
+    if (dtx_h5_short_of_storage(need, stored, nfilt)) {
         char text[200];
         dims_text(dims, rank, text, sizeof text);
         st = ferr(err, DTX_EFORMAT, file, path,

@@ -19,6 +19,7 @@
 #include "h5layout.h"
 #include "h5guard.h"
 #include "h5mesh_attrs.h"
+#include "h5util.h"
 
 #include <cjson/cJSON.h>
 
@@ -34,14 +35,6 @@
 #define MAX_DSETS 8
 #define MAX_ATTRS 24
 #define MAX_REFS 8
-#define GZIP_MAX_RATIO 1100u
-
-#define CLOSE_ID(fn, id)                                                                       \
-    do {                                                                                       \
-        if ((id) > 0)                                                                          \
-            (void)fn(id);                                                                      \
-        (id) = H5I_INVALID_HID;                                                                \
-    } while (0)
 
 typedef struct {
     char name[32];
@@ -513,7 +506,7 @@ static void *read_values(vctx *c, const char *group, const vdset *rec, hid_t mty
     need = (uint64_t)*npts * H5Tget_size(ft);
     stored = H5Dget_storage_size(d);
     nfilt = H5Pget_nfilters(dcpl);
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > stored + 64 : need > stored) {
+    if (dtx_h5_short_of_storage(need, stored, nfilt)) {
         problem(c, full, "needs %llu bytes, but only %llu %sbytes are stored: the dataset was "
                 "never fully written", (unsigned long long)need, (unsigned long long)stored,
                 nfilt > 0 ? "compressed " : "");
@@ -845,8 +838,7 @@ static void check_finite_frames(vctx *c, const char *group, const cJSON *spec)
      * check read terabytes of fill values. */
     need = (uint64_t)ndone * fvals * H5Tget_size(ft);
     nfilt = H5Pget_nfilters(dcpl);
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > H5Dget_storage_size(d) + 64
-                  : need > H5Dget_storage_size(d)) {
+    if (dtx_h5_short_of_storage(need, H5Dget_storage_size(d), nfilt)) {
         problem(c, full, "%llu frame%s%s need %llu bytes, but only %llu %sbytes are stored",
                 (unsigned long long)ndone, ndone == 1 ? "" : "s", dn ? " marked done" : "",
                 (unsigned long long)need, (unsigned long long)H5Dget_storage_size(d),
