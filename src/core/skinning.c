@@ -28,6 +28,7 @@
  * are mapped back to the caller's coordinates at the end.
  */
 #include "dtx_core.h"
+#include "mat3.h"
 #include "skinning_internal.h"
 #include "vec3.h"
 
