@@ -63,9 +63,8 @@ const char *dtx_cli_opt_value(int argc, char **argv, const char *name)
     return NULL;
 }
 
-int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots,
-                      int reject_empty, void *args, int argc, char **argv, int *i, char *buf,
-                      size_t n)
+int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots, int reject_empty,
+                      void *args, int argc, char **argv, int *i, char *buf, size_t n)
 {
     const char *s = argv[*i], **slot;
     size_t v;

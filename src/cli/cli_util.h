@@ -52,9 +52,8 @@ typedef struct {
  * when argv[*i] names no slot, and -1 with "CMD: NAME needs a value" (also
  * for an empty value when reject_empty) or "CMD: NAME given twice" in buf
  * (n bytes). */
-int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots,
-                      int reject_empty, void *args, int argc, char **argv, int *i, char *buf,
-                      size_t n);
+int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots, int reject_empty,
+                      void *args, int argc, char **argv, int *i, char *buf, size_t n);
 
 /* The positional arguments of argv[from..]: neither an option ("--x"), nor
  * the value of one of the import and run options that take a value.  Stores

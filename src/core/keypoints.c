@@ -259,14 +259,13 @@ static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error
 static dtx_status score_round(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                               const unsigned char *inset, int replace_j, int32_t k, kp_work *ws,
                               int nthreads, const dtx_kp_params *p, double *errs,
-                              dtx_kp_result *res, int *reduce_failed, int32_t *best,
-                              dtx_error *err)
+                              dtx_kp_result *res, int *reduce_failed, int32_t *best, dtx_error *err)
 {
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p,
-               errs, &res->evaluations, &res->failed);
+    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p, errs,
+               &res->evaluations, &res->failed);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
         return st;
@@ -393,8 +392,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     /* Stage 1: add while the error is above eps and a candidate lowers it. */
     while (res->error > p->eps && res->count < p->max_keys && res->count < res->ncand) {
         int32_t b;
-        if ((st = score_round(&c, incr, cand, inset, -1, res->count + 1, ws, nthreads, p, errs,
-                              res, &reduce_failed, &b, err)) != DTX_OK)
+        if ((st = score_round(&c, incr, cand, inset, -1, res->count + 1, ws, nthreads, p, errs, res,
+                              &reduce_failed, &b, err)) != DTX_OK)
             goto fail;
         if (b < 0 || !(errs[b] < res->error))
             break;
@@ -414,8 +413,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         res->sweeps = sweep + 1;
         for (int32_t j = 0; j < res->count; j++) {
             int32_t b, old;
-            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p,
-                                  errs, res, &reduce_failed, &b, err)) != DTX_OK)
+            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, errs,
+                                  res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;

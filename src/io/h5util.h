@@ -10,11 +10,11 @@
 
 /* Closes an HDF5 identifier with fn (H5Dclose, H5Gclose ...) when it is
  * open, and marks it closed. */
-#define CLOSE_ID(fn, id)                                                                       \
-    do {                                                                                       \
-        if ((id) > 0)                                                                          \
-            (void)fn(id);                                                                      \
-        (id) = H5I_INVALID_HID;                                                                \
+#define CLOSE_ID(fn, id)        \
+    do {                        \
+        if ((id) > 0)           \
+            (void)fn(id);       \
+        (id) = H5I_INVALID_HID; \
     } while (0)
 
 /* Whether a dataset whose contents need `need` bytes cannot have been

@@ -438,8 +438,7 @@ static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, s
         if (strcmp(k, "$defs") == 0) {
             if (!cJSON_IsObject(kw))
                 return schema_err(msg, msgsize, spath, "$defs must be an object");
-            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) !=
-                DTX_OK)
+            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) != DTX_OK)
                 return st;
         } else if (ignored) {
             continue;
@@ -466,8 +465,7 @@ static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, s
         } else if (strcmp(k, "properties") == 0) {
             if (!cJSON_IsObject(kw))
                 return schema_err(msg, msgsize, spath, "\"properties\" must be an object");
-            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) !=
-                DTX_OK)
+            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) != DTX_OK)
                 return st;
         } else if (strcmp(k, "required") == 0) {
             const cJSON *r;
