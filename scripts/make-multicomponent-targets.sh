@@ -17,7 +17,7 @@
 #   DTX_DATA_DIR  where the bundled data is unpacked, by scripts/unpack-data.sh
 #                 (default: DIR/data; the tests pass their build tree's data/)
 #
-# The targets (all made by `dtx generate`; see src/core/generate.h):
+# The targets (all made by `dtx generate`; see src/gen/generate.h):
 #
 #   pebble-lion   `dtx generate pebbles`: the lion's surface cut into 250 connected
 #                 patches ("pebbles", as the paper's pebble camel), pieces sharing no

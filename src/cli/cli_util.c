@@ -63,6 +63,28 @@ const char *dtx_cli_opt_value(int argc, char **argv, const char *name)
     return NULL;
 }
 
+int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots, int reject_empty,
+                      void *args, int argc, char **argv, int *i, char *buf, size_t n)
+{
+    const char *s = argv[*i], **slot;
+    size_t v;
+    for (v = 0; v < nslots && strcmp(s, slots[v].name) != 0; v++)
+        ;
+    if (v == nslots)
+        return 0;
+    slot = (const char **)((char *)args + slots[v].off);
+    if (*i + 1 >= argc || (reject_empty && argv[*i + 1][0] == '\0')) {
+        snprintf(buf, n, "%s: %s needs a value", cmd, s);
+        return -1;
+    }
+    if (*slot) {
+        snprintf(buf, n, "%s: %s given twice", cmd, s);
+        return -1;
+    }
+    *slot = argv[++*i];
+    return 1;
+}
+
 /* The options of import and run that take a value (and diff's --tol, from
  * when main.c parsed diff too). */
 static int is_flag_with_value(const char *a)

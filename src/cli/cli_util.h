@@ -40,6 +40,21 @@ int dtx_cli_mpi_finish(dtx_status st);
 /* The value following the first argv[i] equal to name, or NULL. */
 const char *dtx_cli_opt_value(int argc, char **argv, const char *name);
 
+/* A valued option that a command's parser stores in a `const char *` field
+ * of its argument struct: the option's name and the field's offset. */
+typedef struct {
+    const char *name;
+    size_t off;
+} dtx_cli_slot;
+
+/* When argv[*i] names one of the nslots slots, stores the value after it in
+ * that field of args and moves *i onto the value.  Returns 1 when stored, 0
+ * when argv[*i] names no slot, and -1 with "CMD: NAME needs a value" (also
+ * for an empty value when reject_empty) or "CMD: NAME given twice" in buf
+ * (n bytes). */
+int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots, int reject_empty,
+                      void *args, int argc, char **argv, int *i, char *buf, size_t n);
+
 /* The positional arguments of argv[from..]: neither an option ("--x"), nor
  * the value of one of the import and run options that take a value.  Stores
  * at most cap of them in out and returns how many there are (which may be

@@ -80,10 +80,7 @@ typedef struct {
  * point into buf). */
 static const char *parse_args(int argc, char **argv, export_args *a, char *buf, size_t n)
 {
-    static const struct {
-        const char *name;
-        size_t off;
-    } valued[] = {
+    static const dtx_cli_slot valued[] = {
         {"--obj-dir", offsetof(export_args, obj_dir)},
         {"--obj-rest", offsetof(export_args, obj_rest)},
         {"--pc2", offsetof(export_args, pc2)},
@@ -98,22 +95,13 @@ static const char *parse_args(int argc, char **argv, export_args *a, char *buf, 
     memset(a, 0, sizeof *a);
     for (int i = 2; i < argc; i++) {
         const char *s = argv[i];
-        size_t v;
-        for (v = 0; v < sizeof valued / sizeof *valued; v++)
-            if (strcmp(s, valued[v].name) == 0)
-                break;
-        if (v < sizeof valued / sizeof *valued) {
-            const char **slot = (const char **)((char *)a + valued[v].off);
-            if (i + 1 >= argc || argv[i + 1][0] == '\0') {
-                snprintf(buf, n, "export: %s needs a value", s);
-                return buf;
-            }
-            if (*slot) {
-                snprintf(buf, n, "export: %s given twice", s);
-                return buf;
-            }
-            *slot = argv[++i];
-        } else if (strcmp(s, "--step") == 0) {
+        int took = dtx_cli_take_slot("export", valued, sizeof valued / sizeof *valued, 1, a, argc,
+                                     argv, &i, buf, n);
+        if (took < 0)
+            return buf;
+        if (took > 0)
+            continue;
+        if (strcmp(s, "--step") == 0) {
             a->step = 1;
         } else if (s[0] == '-' && s[1] != '\0') {
             snprintf(buf, n, "export: unknown option %s", s);

@@ -1,7 +1,7 @@
 /*
  * cmd_generate.c: `dtx generate pebbles|garment|eyes|reshape IN OUT [options]`.
  *
- * Reads one mesh, runs a generator of src/core/generate.h, and writes the
+ * Reads one mesh, runs a generator of src/gen/generate.h, and writes the
  * result as OBJ, optionally with its vertex map ("generated_vertex,
  * original_vertex" rows, 0-based) and a marker file rewritten for the new
  * mesh (each target vertex replaced by the lowest output vertex made from

@@ -1,6 +1,6 @@
 /*
  * cmd_generate.h: the `dtx generate` subcommand (multi-component test
- * targets from one mesh: pebbles, garment, eyes; see src/core/generate.h).
+ * targets from one mesh: pebbles, garment, eyes; see src/gen/generate.h).
  */
 #ifndef DTX_CMD_GENERATE_H
 #define DTX_CMD_GENERATE_H

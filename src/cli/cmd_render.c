@@ -98,10 +98,7 @@ static int usage_or_keep(const render_args *a, const char *msg)
  * point into buf). */
 static const char *parse_args(int argc, char **argv, render_args *a, char *buf, size_t n)
 {
-    static const struct {
-        const char *name;
-        size_t off;
-    } valued[] = {
+    static const dtx_cli_slot valued[] = {
         {"-o", offsetof(render_args, out)},
         {"--frames", offsetof(render_args, frames)},
         {"--count", offsetof(render_args, count)},
@@ -117,22 +114,13 @@ static const char *parse_args(int argc, char **argv, render_args *a, char *buf, 
     memset(a, 0, sizeof *a);
     for (int i = 2; i < argc; i++) {
         const char *s = argv[i];
-        size_t v;
-        for (v = 0; v < sizeof valued / sizeof *valued; v++)
-            if (strcmp(s, valued[v].name) == 0)
-                break;
-        if (v < sizeof valued / sizeof *valued) {
-            const char **slot = (const char **)((char *)a + valued[v].off);
-            if (i + 1 >= argc) {
-                snprintf(buf, n, "render: %s needs a value", s);
-                return buf;
-            }
-            if (*slot) {
-                snprintf(buf, n, "render: %s given twice", s);
-                return buf;
-            }
-            *slot = argv[++i];
-        } else if (strcmp(s, "--no-source") == 0) {
+        int took = dtx_cli_take_slot("render", valued, sizeof valued / sizeof *valued, 0, a, argc,
+                                     argv, &i, buf, n);
+        if (took < 0)
+            return buf;
+        if (took > 0)
+            continue;
+        if (strcmp(s, "--no-source") == 0) {
             a->no_source = 1;
         } else if (strcmp(s, "--no-labels") == 0) {
             a->no_labels = 1;

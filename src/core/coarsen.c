@@ -117,6 +117,7 @@ dtx_status dtx_coarsen(int32_t nfine, const dtx_spring_set *fine, dtx_coarse_lev
     unsigned char *kind = NULL, *covered = NULL;
     int64_t cap = 0, m = 0;
     int32_t nc = 0, nt = 0;
+    dtx_status st;
 
     memset(out, 0, sizeof *out);
     if (!dtx__spring_adjacency(nfine, fine->ends, fine->kind, fine->n, DTX_SPRING_EDGE, &adjp,
@@ -253,28 +254,22 @@ dtx_status dtx_coarsen(int32_t nfine, const dtx_spring_set *fine, dtx_coarse_lev
         ends = NULL;
         kind = NULL;
     }
-
-    free(adjp);
-    free(adj);
-    free(cadjp);
-    free(cadj);
-    free(hop);
-    free(queue);
-    free(touched);
-    free(covered);
-    return DTX_OK;
+    st = DTX_OK;
+    goto done;
 
 nomem:
-    free(adjp);
-    free(adj);
-    free(cadjp);
-    free(cadj);
-    free(hop);
-    free(queue);
-    free(touched);
-    free(covered);
     free(ends);
     free(kind);
     dtx_coarse_level_free(out);
-    return dtx_seterr(err, DTX_ENOMEM, "out of memory coarsening the spring network");
+    st = dtx_seterr(err, DTX_ENOMEM, "out of memory coarsening the spring network");
+done:
+    free(adjp);
+    free(adj);
+    free(cadjp);
+    free(cadj);
+    free(hop);
+    free(queue);
+    free(touched);
+    free(covered);
+    return st;
 }

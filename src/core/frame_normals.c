@@ -173,19 +173,13 @@ dtx_status dtx_frame_normals_plan(const double *V, int32_t nv, const int32_t *F,
         p->out_group[o] = -1;
     for (int64_t c = 0; c < nc; c++)
         p->out_group[p->out_faces[c]] = cgroup[c];
-    free(grep_n);
-    free(cgroup);
-    free(map);
-    free(rep);
-    free(keys);
-    free(rep_v);
-    free(rep_j);
-    free(pstart);
-    free(pcorner);
-    return DTX_OK;
+    st = DTX_OK;
+    goto done;
 oom:
     st = dtx_seterr(err, DTX_ENOMEM, "frame normals: out of memory");
 fail:
+    dtx_frame_normals_free(p);
+done:
     free(grep_n);
     free(cgroup);
     free(map);
@@ -195,7 +189,6 @@ fail:
     free(rep_j);
     free(pstart);
     free(pcorner);
-    dtx_frame_normals_free(p);
     return st;
 }
 

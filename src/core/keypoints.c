@@ -253,6 +253,28 @@ static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error
     return DTX_OK;
 }
 
+/* One round of the search: the error errs[i] of every candidate i with k
+ * key points (candidate i added, or put in place of key replace_j >= 0),
+ * reduced over the parts, and *best the candidate with the least (-1 when
+ * none).  Sets *reduce_failed when the reduction over the parts failed. */
+static dtx_status score_round(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+                              const unsigned char *inset, int replace_j, int32_t k, kp_work *ws,
+                              int nthreads, const dtx_kp_params *p, double *errs,
+                              dtx_kp_result *res, int *reduce_failed, int32_t *best, dtx_error *err)
+{
+    dtx_status st;
+    if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
+        return st;
+    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p, errs,
+               &res->evaluations, &res->failed);
+    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
+        *reduce_failed = 1;
+        return st;
+    }
+    *best = argmin(errs, res->ncand);
+    return DTX_OK;
+}
+
 dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const double *X,
                                 const dtx_kp_params *p, dtx_kp_result *res, dtx_error *err)
 {
@@ -371,17 +393,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     /* Stage 1: add while the error is above eps and a candidate lowers it. */
     while (res->error > p->eps && res->count < p->max_keys && res->count < res->ncand) {
         int32_t b;
-        if (!c.exact && (st = round_labels(&c, incr, res->count + 1, nthreads, &ws[0], err)) !=
-                            DTX_OK)
+        if ((st = score_round(&c, incr, cand, inset, -1, res->count + 1, ws, nthreads, p, errs, res,
+                              &reduce_failed, &b, err)) != DTX_OK)
             goto fail;
-        round_eval(&c, incr, cand, res->ncand, inset, -1, ws[0].labels, res->count + 1, ws,
-                   nthreads, p, errs, &res->evaluations, &res->failed);
-        if (p->part_count > 1 &&
-            (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
-            reduce_failed = 1;
-            goto fail;
-        }
-        b = argmin(errs, res->ncand);
         if (b < 0 || !(errs[b] < res->error))
             break;
         if ((st = dtx_bbw_incr_add(incr, cand[b], err)) != DTX_OK)
@@ -400,17 +414,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         res->sweeps = sweep + 1;
         for (int32_t j = 0; j < res->count; j++) {
             int32_t b, old;
-            if (!c.exact &&
-                (st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) != DTX_OK)
+            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, errs,
+                                  res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
-            round_eval(&c, incr, cand, res->ncand, inset, (int)j, ws[0].labels, res->count, ws,
-                       nthreads, p, errs, &res->evaluations, &res->failed);
-            if (p->part_count > 1 &&
-                (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
-                reduce_failed = 1;
-                goto fail;
-            }
-            b = argmin(errs, res->ncand);
             if (b < 0 || !(errs[b] < res->error))
                 continue;
             if ((st = dtx_bbw_incr_replace(incr, j, cand[b], err)) != DTX_OK)

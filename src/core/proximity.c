@@ -130,6 +130,15 @@ static void component_eps(const dtx_mesh *m, const int32_t *comp, double eps_fac
 /* k-d tree over the vertices in faces                                 */
 /* ------------------------------------------------------------------ */
 
+/* Not the point mode of bvh.c, on purpose: the searches here prune whole
+ * subtrees by what lies below a node (one cluster only, lab[]; the range of
+ * components, clo/chi), which dtx_bvh's per-primitive filter callback cannot
+ * do, and they break ties by (d2, component, vertex) rather than by index.
+ * The BVH in turn serves triangles and points with one traversal and a
+ * filter that depends on the query (the normal test of the
+ * correspondences).  One index for both would carry the other's extras on
+ * every query. */
+
 typedef struct {
     double lo[3], hi[3];
     int32_t first; /* leaf: first point (tree order); inner: left child (right = left + 1) */

@@ -28,6 +28,7 @@
  * are mapped back to the caller's coordinates at the end.
  */
 #include "dtx_core.h"
+#include "mat3.h"
 #include "skinning_internal.h"
 #include "vec3.h"
 
@@ -607,6 +608,14 @@ typedef struct {
     double *Rn; /* ncl x 9 */
 } frame_ws;
 
+/* The next n doubles of a pool cut into a frame_ws's arrays. */
+static double *carve(double **pool, size_t n)
+{
+    double *p = *pool;
+    *pool += n;
+    return p;
+}
+
 /* Cluster rotations maximising tr(R_g C_g): the rotation nearest C_g^T. */
 static void best_rotations(const double *C, int32_t ncl, double *R)
 {
@@ -843,21 +852,14 @@ dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const d
     }
     for (int t = 0; t < nt; t++) {
         double *b = pool + (size_t)t * per;
-        ws[t].q = b;
-        b += (size_t)nv * 3;
-        ws[t].h = b;
-        b += (size_t)n4 * 3;
-        ws[t].T = b;
-        b += (size_t)n4 * 3;
-        ws[t].Tn = b;
-        b += (size_t)n4 * 3;
-        ws[t].b = b;
-        b += (size_t)n4 * 3;
-        ws[t].C = b;
-        b += (size_t)ncl * 9;
-        ws[t].R = b;
-        b += (size_t)ncl * 9;
-        ws[t].Rn = b;
+        ws[t].q = carve(&b, (size_t)nv * 3);
+        ws[t].h = carve(&b, (size_t)n4 * 3);
+        ws[t].T = carve(&b, (size_t)n4 * 3);
+        ws[t].Tn = carve(&b, (size_t)n4 * 3);
+        ws[t].b = carve(&b, (size_t)n4 * 3);
+        ws[t].C = carve(&b, (size_t)ncl * 9);
+        ws[t].R = carve(&b, (size_t)ncl * 9);
+        ws[t].Rn = carve(&b, (size_t)ncl * 9);
     }
 
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nt)

@@ -11,6 +11,7 @@
  * direction and are always defined.
  */
 #include "dtx_core.h"
+#include "mat3.h"
 #include "skinning_internal.h"
 
 #include <math.h>

@@ -44,6 +44,7 @@
 #include "springs.h"
 #include "cholmod_util.h"
 #include "coarsen.h"
+#include "plan_util.h"
 #include "transfer.h"
 #include "vec3.h"
 
@@ -78,15 +79,6 @@ void dtx_spring_set_free(dtx_spring_set *s)
     free(s->ends);
     free(s->kind);
     memset(s, 0, sizeof *s);
-}
-
-static double now_seconds(void)
-{
-#ifdef _OPENMP
-    return omp_get_wtime();
-#else
-    return 0.0;
-#endif
 }
 
 /* ------------------------------------------------------------------ */
@@ -514,37 +506,32 @@ struct dtx_springs_plan {
 
     cholmod_common cc;
     dtx_springs_info info;
-    int nworkers;
-    worker *workers;
+    dtx__workers workers; /* a worker per thread */
 };
 
 int32_t dtx_springs_plan_nv_src(const dtx_springs_plan *p) { return p->nv_s; }
 int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *p) { return p->nv_t; }
 void dtx_springs_plan_info(const dtx_springs_plan *p, dtx_springs_info *info) { *info = p->info; }
 
-static void free_workers(dtx_springs_plan *p)
+static void fini_worker(void *plan, void *workspace)
 {
-    for (int w = 0; w < p->nworkers; w++) {
-        worker *k = &p->workers[w];
-        for (int l = 0; l < p->nlev; l++) {
-            level_work *lw = &k->lw[l];
-            free(lw->x);
-            free(lw->xt);
-            free(lw->g);
-            free(lw->Hx);
-            free(lw->rtil);
-            cholmod_free_factor(&lw->L, &k->cc);
-            cholmod_free_dense(&lw->B, &k->cc);
-            cholmod_free_dense(&lw->X, &k->cc);
-            cholmod_free_dense(&lw->Y, &k->cc);
-            cholmod_free_dense(&lw->E, &k->cc);
-        }
-        free(k->rot);
-        cholmod_finish(&k->cc);
+    const dtx_springs_plan *p = plan;
+    worker *k = workspace;
+    for (int l = 0; l < p->nlev; l++) {
+        level_work *lw = &k->lw[l];
+        free(lw->x);
+        free(lw->xt);
+        free(lw->g);
+        free(lw->Hx);
+        free(lw->rtil);
+        cholmod_free_factor(&lw->L, &k->cc);
+        cholmod_free_dense(&lw->B, &k->cc);
+        cholmod_free_dense(&lw->X, &k->cc);
+        cholmod_free_dense(&lw->Y, &k->cc);
+        cholmod_free_dense(&lw->E, &k->cc);
     }
-    free(p->workers);
-    p->workers = NULL;
-    p->nworkers = 0;
+    free(k->rot);
+    cholmod_finish(&k->cc);
 }
 
 static void level_free(level *L, cholmod_common *cc)
@@ -574,7 +561,7 @@ void dtx_springs_plan_free(dtx_springs_plan **pp)
     if (!pp || !*pp)
         return;
     p = *pp;
-    free_workers(p);
+    dtx__workers_free(&p->workers, p, fini_worker);
     for (int l = 0; l < p->nlev; l++)
         level_free(&p->lev[l], &p->cc);
     cholmod_finish(&p->cc);
@@ -1114,7 +1101,7 @@ dtx_status dtx_springs_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, con
     dtx_springs_plan *p = NULL;
     dtx_status st;
     const double *Vr;
-    double t0 = now_seconds(), diag_s, diag_t;
+    double t0 = dtx__now_seconds(), diag_s, diag_t;
 
     *out = NULL;
     st = check_args(src, tgt, proxy, prm, anchor, pins, pin_pos, npins, err);
@@ -1202,7 +1189,7 @@ dtx_status dtx_springs_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, con
         p->info.supernodal = F->is_super != 0;
     }
     p->info.proxy = p->proxy;
-    p->info.setup_seconds = now_seconds() - t0;
+    p->info.setup_seconds = dtx__now_seconds() - t0;
     *out = p;
     return DTX_OK;
 
@@ -1425,47 +1412,32 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
 /* Apply                                                               */
 /* ------------------------------------------------------------------ */
 
-static dtx_status ensure_workers(dtx_springs_plan *p, dtx_error *err)
+static int init_worker(void *plan, void *workspace)
 {
-    int n = 1;
-#ifdef _OPENMP
-    n = omp_get_max_threads();
-#endif
-    if (p->nworkers >= n)
-        return DTX_OK;
-    free_workers(p);
-    p->workers = calloc((size_t)n, sizeof *p->workers);
-    if (!p->workers)
-        return dtx_seterr(err, DTX_ENOMEM, "out of memory for the springs workspaces");
-    p->nworkers = n;
-    for (int w = 0; w < n; w++) {
-        worker *k = &p->workers[w];
-        dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
-        k->rot = dtx_alloc((size_t)p->max_level_n, 9 * sizeof *k->rot, 0);
-        if (!k->rot)
-            goto nomem;
-        for (int l = 0; l < p->nlev; l++) {
-            const level *L = &p->lev[l];
-            level_work *lw = &k->lw[l];
-            lw->x = dtx_alloc((size_t)L->n, 3 * sizeof *lw->x, 1);
-            lw->xt = dtx_alloc((size_t)L->n, 3 * sizeof *lw->xt, 1);
-            lw->g = dtx_alloc((size_t)L->nfree, 3 * sizeof *lw->g, 0);
-            lw->Hx = dtx_alloc((size_t)L->nnz, sizeof *lw->Hx, 0);
-            lw->rtil = dtx_alloc((size_t)L->springs.n, sizeof *lw->rtil, 0);
-            if (!lw->x || !lw->xt || !lw->g || !lw->Hx || !lw->rtil)
-                goto nomem;
-            if (L->nfree > 0) {
-                lw->L = cholmod_copy_factor(L->L, &k->cc);
-                lw->B = cholmod_zeros(3 * (size_t)L->nfree, 1, CHOLMOD_REAL, &k->cc);
-                if (!lw->L || !lw->B)
-                    goto nomem;
-            }
+    dtx_springs_plan *p = plan;
+    worker *k = workspace;
+    dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
+    k->rot = dtx_alloc((size_t)p->max_level_n, 9 * sizeof *k->rot, 0);
+    if (!k->rot)
+        return 0;
+    for (int l = 0; l < p->nlev; l++) {
+        const level *L = &p->lev[l];
+        level_work *lw = &k->lw[l];
+        lw->x = dtx_alloc((size_t)L->n, 3 * sizeof *lw->x, 1);
+        lw->xt = dtx_alloc((size_t)L->n, 3 * sizeof *lw->xt, 1);
+        lw->g = dtx_alloc((size_t)L->nfree, 3 * sizeof *lw->g, 0);
+        lw->Hx = dtx_alloc((size_t)L->nnz, sizeof *lw->Hx, 0);
+        lw->rtil = dtx_alloc((size_t)L->springs.n, sizeof *lw->rtil, 0);
+        if (!lw->x || !lw->xt || !lw->g || !lw->Hx || !lw->rtil)
+            return 0;
+        if (L->nfree > 0) {
+            lw->L = cholmod_copy_factor(L->L, &k->cc);
+            lw->B = cholmod_zeros(3 * (size_t)L->nfree, 1, CHOLMOD_REAL, &k->cc);
+            if (!lw->L || !lw->B)
+                return 0;
         }
     }
-    return DTX_OK;
-nomem:
-    free_workers(p);
-    return dtx_seterr(err, DTX_ENOMEM, "out of memory for the springs workspaces");
+    return 1;
 }
 
 /* The coarsest level's start: its rest shape turned by Rs about its rest
@@ -1900,7 +1872,8 @@ nan:
 dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double *Xs, double *Xt,
                              dtx_springs_frame_info *info, dtx_error *err)
 {
-    dtx_status st = ensure_workers(p, err);
+    dtx_status st = dtx__workers_ensure(&p->workers, sizeof(worker), p, init_worker, fini_worker,
+                                        "the springs workspaces", err);
     if (st != DTX_OK)
         return st;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -1909,8 +1882,8 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
 #ifdef _OPENMP
         t = omp_get_thread_num();
 #endif
-        solve_frame(p, &p->workers[t], Xs + (size_t)f * 3 * p->nv_s, Xt + (size_t)f * 3 * p->nv_t,
-                    info ? info + f : NULL);
+        solve_frame(p, dtx__worker(&p->workers, t), Xs + (size_t)f * 3 * p->nv_s,
+                    Xt + (size_t)f * 3 * p->nv_t, info ? info + f : NULL);
     }
     return DTX_OK;
 }

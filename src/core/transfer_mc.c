@@ -76,6 +76,7 @@
  */
 #include "cholmod_util.h"
 #include "dtx_core.h"
+#include "plan_util.h"
 #include "proximity.h"
 #include "transfer.h"
 #include "vec3.h"
@@ -181,34 +182,28 @@ struct dtx_mc_plan {
     double factor_seconds;
     dtx_mc_info info;
 
-    int nworkers;
-    mc_worker *workers;
+    dtx__workers workers; /* an mc_worker per thread */
 };
 
-static void free_workers(dtx_mc_plan *p)
+static void fini_worker(void *plan, void *workspace)
 {
-    for (int w = 0; w < p->nworkers; w++) {
-        mc_worker *k = &p->workers[w];
-        mc_frame *fr = &k->fr;
-        cholmod_free_dense(&k->B, &k->cc);
-        cholmod_free_dense(&k->X, &k->cc);
-        cholmod_free_dense(&k->Y, &k->cc);
-        cholmod_free_dense(&k->E, &k->cc);
-        cholmod_finish(&k->cc);
-        free(fr->S);
-        free(fr->Sp);
-        free(fr->b1);
-        free(fr->x);
-        free(fr->lx);
-        free(fr->xf);
-        free(fr->fl);
-        free(fr->gl);
-        free(fr->df);
-        free(fr->dg);
-    }
-    free(p->workers);
-    p->workers = NULL;
-    p->nworkers = 0;
+    mc_worker *k = workspace;
+    mc_frame *fr = &k->fr;
+    cholmod_free_dense(&k->B, &k->cc);
+    cholmod_free_dense(&k->X, &k->cc);
+    cholmod_free_dense(&k->Y, &k->cc);
+    cholmod_free_dense(&k->E, &k->cc);
+    cholmod_finish(&k->cc);
+    free(fr->S);
+    free(fr->Sp);
+    free(fr->b1);
+    free(fr->x);
+    free(fr->lx);
+    free(fr->xf);
+    free(fr->fl);
+    free(fr->gl);
+    free(fr->df);
+    free(fr->dg);
 }
 
 void dtx_mc_plan_free(dtx_mc_plan **pp)
@@ -217,7 +212,7 @@ void dtx_mc_plan_free(dtx_mc_plan **pp)
     if (!pp || !*pp)
         return;
     p = *pp;
-    free_workers(p);
+    dtx__workers_free(&p->workers, p, fini_worker);
     cholmod_free_factor(&p->L, &p->cc);
     cholmod_finish(&p->cc);
     dtx_proximity_free(&p->prox);
@@ -558,25 +553,6 @@ static dtx_status build_prox_src(dtx_mc_plan *p, dtx_error *err)
     return DTX_OK;
 }
 
-static double now_seconds(void)
-{
-#ifdef _OPENMP
-    return omp_get_wtime();
-#else
-    return 0.0;
-#endif
-}
-
-static void centroid(const double *X, int32_t n, double *c)
-{
-    c[0] = c[1] = c[2] = 0.0;
-    for (int32_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++)
-            c[k] += X[3 * (size_t)i + k];
-    for (int k = 0; k < 3; k++)
-        c[k] /= n;
-}
-
 dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const int32_t *pairs,
                               int64_t npairs, const dtx_mc_params *prm, dtx_anchor anchor,
                               const int32_t *pins, const double *pin_pos, int32_t npins,
@@ -599,23 +575,15 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
         return dtx_seterr(err, DTX_EINVAL,
                           "multicomponent parameters out of range (w_match > 0, other weights, "
                           "tol and eps_factor >= 0, max_iter >= 1)");
-    if (anchor == DTX_ANCHOR_PINS && npins < 1)
-        return dtx_seterr(err, DTX_EINVAL, "translation \"pins\" needs at least one pinned vertex");
-    for (int32_t i = 0; i < npins; i++)
-        if (pins[i] < 0 || pins[i] >= nv)
-            return dtx_seterr(err, DTX_ERANGE, "pin %d: vertex %d out of range [0, %d)", (int)i,
-                              (int)pins[i], (int)nv);
+    st = dtx__check_pins(anchor, pins, npins, nv, err);
+    if (st != DTX_OK)
+        return st;
     if (npairs < 0 || npairs > INT32_MAX)
         return dtx_seterr(err, DTX_ERANGE, "%lld correspondence pairs: 0 to %d supported",
                           (long long)npairs, (int)INT32_MAX);
-    for (int64_t i = 0; i < npairs; i++)
-        if (pairs[2 * i] < 0 || pairs[2 * i] >= src->nf || pairs[2 * i + 1] < 0 ||
-            pairs[2 * i + 1] >= nf)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "correspondence pair %lld (%d, %d) out of range (%d source, %d "
-                              "target triangles)",
-                              (long long)i, (int)pairs[2 * i], (int)pairs[2 * i + 1],
-                              (int)src->nf, (int)nf);
+    st = dtx__check_pairs(pairs, npairs, src->nf, nf, err);
+    if (st != DTX_OK)
+        return st;
 
     p = calloc(1, sizeof *p);
     if (!p)
@@ -711,8 +679,8 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
      * vertices in no face keep their rest offset from the centroid). */
     for (int64_t i = 0; i < 3 * (int64_t)nf; i++)
         p->used[tgt->F[i]] = 1;
-    centroid(tgt->V, nv, p->rest_centroid_t);
-    centroid(src->V, src->nv, p->rest_centroid_s);
+    dtx__centroid(tgt->V, nv, p->rest_centroid_t);
+    dtx__centroid(src->V, src->nv, p->rest_centroid_s);
     p->scale = diag_s > 0 ? diag_t / diag_s : 1.0;
     for (int32_t v = 0; v < nv; v++)
         p->freeidx[v] = p->used[v] ? 0 : -1;
@@ -811,14 +779,14 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     if (!K)
         goto nomem;
 
-    t0 = now_seconds();
+    t0 = dtx__now_seconds();
     st = dtx__chol_analyze_factorize(K, DTX__CHOL_TEAMS, "the multicomponent transfer system",
                                      ": some vertex is reached by no term (a component with "
                                      "neither pairs, proximity pairs nor orphan terms?)",
                                      &p->L, &p->cc, err);
     if (st != DTX_OK)
         goto fail;
-    p->factor_seconds = now_seconds() - t0;
+    p->factor_seconds = dtx__now_seconds() - t0;
     p->info.factor_seconds = p->factor_seconds;
     cholmod_free_sparse(&K, &p->cc);
     free(paired);
@@ -854,43 +822,29 @@ int32_t dtx_mc_plan_nv_tgt(const dtx_mc_plan *p) { return p->nv_t; }
 /* Apply                                                               */
 /* ------------------------------------------------------------------ */
 
-static dtx_status ensure_workers(dtx_mc_plan *p, dtx_error *err)
+static int init_worker(void *plan, void *workspace)
 {
-    int n = 1;
+    dtx_mc_plan *p = plan;
     const size_t n3 = 3 * (size_t)p->nfree;
-#ifdef _OPENMP
-    n = omp_get_max_threads();
-#endif
-    if (p->nworkers >= n)
-        return DTX_OK;
-    free_workers(p);
-    p->workers = calloc((size_t)n, sizeof *p->workers);
-    if (!p->workers)
-        return dtx_seterr(err, DTX_ENOMEM, "out of memory for solver workspaces");
-    p->nworkers = n;
-    for (int w = 0; w < n; w++) {
-        mc_worker *k = &p->workers[w];
-        mc_frame *fr = &k->fr;
-        dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
-        k->B = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
-        fr->S = dtx_alloc((size_t)p->nf_s, 9 * sizeof *fr->S, 0);
-        fr->Sp = dtx_alloc((size_t)p->npairs, 9 * sizeof *fr->Sp, 0);
-        fr->b1 = dtx_alloc(n3, sizeof *fr->b1, 0);
-        fr->x = dtx_alloc((size_t)p->nv_t, 3 * sizeof *fr->x, 0);
-        fr->lx = dtx_alloc((size_t)p->nlap, 3 * sizeof *fr->lx, 0);
-        fr->xf = dtx_alloc(n3, sizeof *fr->xf, 0);
-        fr->fl = dtx_alloc(n3, sizeof *fr->fl, 0);
-        fr->gl = dtx_alloc(n3, sizeof *fr->gl, 0);
-        fr->df = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->df, 0);
-        fr->dg = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->dg, 0);
-        if (!k->B || !fr->S || !fr->Sp || !fr->b1 || !fr->x || !fr->lx || !fr->xf || !fr->fl ||
-            !fr->gl || !fr->df || !fr->dg) {
-            free_workers(p);
-            return dtx_seterr(err, DTX_ENOMEM, "out of memory for solver workspaces");
-        }
-        fr->b = k->B->x;
-    }
-    return DTX_OK;
+    mc_worker *k = workspace;
+    mc_frame *fr = &k->fr;
+    dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
+    k->B = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
+    fr->S = dtx_alloc((size_t)p->nf_s, 9 * sizeof *fr->S, 0);
+    fr->Sp = dtx_alloc((size_t)p->npairs, 9 * sizeof *fr->Sp, 0);
+    fr->b1 = dtx_alloc(n3, sizeof *fr->b1, 0);
+    fr->x = dtx_alloc((size_t)p->nv_t, 3 * sizeof *fr->x, 0);
+    fr->lx = dtx_alloc((size_t)p->nlap, 3 * sizeof *fr->lx, 0);
+    fr->xf = dtx_alloc(n3, sizeof *fr->xf, 0);
+    fr->fl = dtx_alloc(n3, sizeof *fr->fl, 0);
+    fr->gl = dtx_alloc(n3, sizeof *fr->gl, 0);
+    fr->df = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->df, 0);
+    fr->dg = dtx_alloc(n3, MC_AA_DEPTH * sizeof *fr->dg, 0);
+    if (!k->B || !fr->S || !fr->Sp || !fr->b1 || !fr->x || !fr->lx || !fr->xf || !fr->fl ||
+        !fr->gl || !fr->df || !fr->dg)
+        return 0;
+    fr->b = k->B->x;
+    return 1;
 }
 
 /* L x for every Laplacian row into lx. */
@@ -1166,9 +1120,9 @@ static void frame_finish(const dtx_mc_plan *p, mc_frame *fr, int converged)
     }
     if (p->npins == 0) {
         double cs[3], cx[3];
-        centroid(fr->x, nv, cx);
+        dtx__centroid(fr->x, nv, cx);
         if (p->anchor == DTX_ANCHOR_FOLLOW)
-            centroid(fr->Xs, p->nv_s, cs);
+            dtx__centroid(fr->Xs, p->nv_s, cs);
         for (int c = 0; c < 3; c++) {
             want[c] = p->rest_centroid_t[c] +
                       (p->anchor == DTX_ANCHOR_FOLLOW ? p->scale * (cs[c] - p->rest_centroid_s[c])
@@ -1323,7 +1277,8 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
 dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, double *Xt,
                         double *residual, dtx_mc_frame_info *info, dtx_error *err)
 {
-    dtx_status st = ensure_workers(p, err);
+    dtx_status st = dtx__workers_ensure(&p->workers, sizeof(mc_worker), p, init_worker,
+                                        fini_worker, "solver workspaces", err);
     if (st != DTX_OK)
         return st;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -1334,7 +1289,7 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
 #ifdef _OPENMP
         t = omp_get_thread_num();
 #endif
-        w = &p->workers[t];
+        w = dtx__worker(&p->workers, t);
         fr = &w->fr;
         if (!frame_start(p, fr, f, Xs, Xt, residual, info))
             continue;

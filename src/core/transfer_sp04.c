@@ -52,6 +52,7 @@
  */
 #include "cholmod_util.h"
 #include "dtx_core.h"
+#include "plan_util.h"
 #include "transfer.h"
 #include "vec3.h"
 
@@ -153,7 +154,7 @@ typedef struct {
     int32_t unused;
 } pair_term;
 
-/* Per-thread scratch, allocated once (ensure_workers). */
+/* Per-thread scratch, allocated once (dtx__workers_ensure). */
 typedef struct {
     double *xg; /* nv_s rows of 3 x LANES: the group's source positions */
     double *bg; /* nv_t rows of 3 x LANES: right-hand sides, solved in place;
@@ -202,18 +203,8 @@ struct dtx_sp04_plan {
     cholmod_factor *L;
     double factor_seconds;
 
-    int nworkers;
-    worker *workers;
+    dtx__workers workers; /* a worker per thread */
 };
-
-static double now_seconds(void)
-{
-#ifdef _OPENMP
-    return omp_get_wtime();
-#else
-    return 0.0;
-#endif
-}
 
 static int cpu_has_avx2(void)
 {
@@ -229,15 +220,11 @@ int32_t dtx_sp04_plan_nv_src(const dtx_sp04_plan *p) { return p->nv_s; }
 int32_t dtx_sp04_plan_nv_tgt(const dtx_sp04_plan *p) { return p->nv_t; }
 double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *p) { return p->factor_seconds; }
 
-static void free_workers(dtx_sp04_plan *p)
+static void fini_worker(void *plan, void *workspace)
 {
-    for (int w = 0; w < p->nworkers; w++) {
-        free(p->workers[w].xg);
-        free(p->workers[w].bg);
-    }
-    free(p->workers);
-    p->workers = NULL;
-    p->nworkers = 0;
+    worker *k = workspace;
+    free(k->xg);
+    free(k->bg);
 }
 
 void dtx_sp04_plan_free(dtx_sp04_plan **pp)
@@ -246,7 +233,7 @@ void dtx_sp04_plan_free(dtx_sp04_plan **pp)
     if (!pp || !*pp)
         return;
     p = *pp;
-    free_workers(p);
+    dtx__workers_free(&p->workers, p, fini_worker);
     cholmod_free_factor(&p->L, &p->cc);
     cholmod_finish(&p->cc);
     free(p->sterm);
@@ -268,16 +255,6 @@ void dtx_sp04_plan_free(dtx_sp04_plan **pp)
     free(p->ldiag);
     free(p);
     *pp = NULL;
-}
-
-static void centroid(const double *X, int32_t n, double *c)
-{
-    c[0] = c[1] = c[2] = 0.0;
-    for (int32_t i = 0; i < n; i++)
-        for (int k = 0; k < 3; k++)
-            c[k] += X[3 * (size_t)i + k];
-    for (int k = 0; k < 3; k++)
-        c[k] /= n;
 }
 
 /* ------------------------------------------------------------------ */
@@ -647,24 +624,16 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     const int32_t nv = tgt->nv, nf = tgt->nf;
 
     *out = NULL;
-    if (anchor == DTX_ANCHOR_PINS && npins < 1)
-        return dtx_seterr(err, DTX_EINVAL, "translation \"pins\" needs at least one pinned vertex");
-    for (int32_t i = 0; i < npins; i++)
-        if (pins[i] < 0 || pins[i] >= nv)
-            return dtx_seterr(err, DTX_ERANGE, "pin %d: vertex %d out of range [0, %d)", (int)i,
-                              (int)pins[i], (int)nv);
+    st = dtx__check_pins(anchor, pins, npins, nv, err);
+    if (st != DTX_OK)
+        return st;
     if (npairs < 0 || npairs > INT32_MAX)
         return dtx_seterr(err, DTX_ERANGE,
                           "%lld correspondence pairs: the transfer handles 0 to %d pairs",
                           (long long)npairs, (int)INT32_MAX);
-    for (int64_t i = 0; i < npairs; i++)
-        if (pairs[2 * i] < 0 || pairs[2 * i] >= src->nf || pairs[2 * i + 1] < 0 ||
-            pairs[2 * i + 1] >= nf)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "correspondence pair %lld (%d, %d) out of range (%d source, %d "
-                              "target triangles)",
-                              (long long)i, (int)pairs[2 * i], (int)pairs[2 * i + 1],
-                              (int)src->nf, (int)nf);
+    st = dtx__check_pairs(pairs, npairs, src->nf, nf, err);
+    if (st != DTX_OK)
+        return st;
 
     p = calloc(1, sizeof *p);
     if (!p)
@@ -720,8 +689,8 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
 
     /* Removed unknowns: pins, unreferenced vertices, and (without pins) one
      * anchor vertex whose value is fixed by the centroid afterwards. */
-    centroid(tgt->V, nv, p->rest_centroid_t);
-    centroid(src->V, src->nv, p->rest_centroid_s);
+    dtx__centroid(tgt->V, nv, p->rest_centroid_t);
+    dtx__centroid(src->V, src->nv, p->rest_centroid_s);
     diag_s = dtx_bbox_diagonal(src->V, src->nv);
     diag_t = dtx_bbox_diagonal(tgt->V, nv);
     p->scale = diag_s > 0 ? diag_t / diag_s : 1.0;
@@ -788,14 +757,14 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     if (st != DTX_OK)
         goto fail;
 
-    t0 = now_seconds();
+    t0 = dtx__now_seconds();
     st = dtx__chol_analyze_factorize(K, DTX__CHOL_TEAMS, "the transfer system",
                                      ": the target may have degenerate triangles only, or a "
                                      "vertex no pair reaches",
                                      &p->L, &p->cc, err);
     if (st != DTX_OK)
         goto fail;
-    p->factor_seconds = now_seconds() - t0;
+    p->factor_seconds = dtx__now_seconds() - t0;
     st = number_bg_rows(p, err);
     if (st != DTX_OK)
         goto fail;
@@ -804,14 +773,9 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
             p->unrefrows[k++] = p->trow[v];
     cholmod_free_sparse(&K, &p->cc);
     cholmod_free_sparse(&Lfull, &p->cc);
-    free(comp);
-    free(tmult);
-    free(used);
-    free(Vinv);
-    free(G);
-    free(N);
     *out = p;
-    return DTX_OK;
+    p = NULL; /* the caller's now */
+    goto done;
 
 nomem:
     st = dtx_seterr(err, DTX_ENOMEM, "out of memory creating the transfer plan");
@@ -820,6 +784,7 @@ fail:
         cholmod_free_sparse(&K, &p->cc);
         cholmod_free_sparse(&Lfull, &p->cc);
     }
+done:
     free(comp);
     free(tmult);
     free(used);
@@ -834,29 +799,13 @@ fail:
 /* Apply: per-thread scratch                                            */
 /* ------------------------------------------------------------------ */
 
-static dtx_status ensure_workers(dtx_sp04_plan *p, dtx_error *err)
+static int init_worker(void *plan, void *workspace)
 {
-    int n = 1;
-#ifdef _OPENMP
-    n = omp_get_max_threads();
-#endif
-    if (p->nworkers >= n)
-        return DTX_OK;
-    free_workers(p);
-    p->workers = calloc((size_t)n, sizeof *p->workers);
-    if (!p->workers)
-        return dtx_seterr(err, DTX_ENOMEM, "out of memory for solver workspaces");
-    p->nworkers = n;
-    for (int w = 0; w < n; w++) {
-        worker *k = &p->workers[w];
-        k->xg = alloc_rows(p->nv_s);
-        k->bg = alloc_rows(p->nv_t);
-        if (!k->xg || !k->bg) {
-            free_workers(p);
-            return dtx_seterr(err, DTX_ENOMEM, "out of memory for solver workspaces");
-        }
-    }
-    return DTX_OK;
+    dtx_sp04_plan *p = plan;
+    worker *k = workspace;
+    k->xg = alloc_rows(p->nv_s);
+    k->bg = alloc_rows(p->nv_t);
+    return k->xg && k->bg;
 }
 
 /* ------------------------------------------------------------------ */
@@ -866,7 +815,7 @@ static dtx_status ensure_workers(dtx_sp04_plan *p, dtx_error *err)
 /* Transposes the group's nfr source frames (nfr x nv x 3) into xg (row
  * srow[v] of nv rows of 3 x LANES); lanes past nfr repeat the last frame.
  * With cs non-NULL, also each lane's source centroid (the same sums in the
- * same order as centroid() on the frame). */
+ * same order as dtx__centroid() on the frame). */
 KERNEL void load_source_lanes(const dtx_sp04_plan *p, const double *Xs, int64_t nfr,
                               double *restrict xg, double (*cs)[LANES])
 {
@@ -1237,7 +1186,8 @@ dtx_status dtx_sp04_apply(dtx_sp04_plan *p, int64_t nframes, const double *Xs, d
                           double *residual, dtx_error *err)
 {
     int64_t ngroups = (nframes + DTX_SOLVE_GROUP - 1) / DTX_SOLVE_GROUP;
-    dtx_status st = ensure_workers(p, err);
+    dtx_status st = dtx__workers_ensure(&p->workers, sizeof(worker), p, init_worker, fini_worker,
+                                        "solver workspaces", err);
     if (st != DTX_OK)
         return st;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -1252,10 +1202,10 @@ dtx_status dtx_sp04_apply(dtx_sp04_plan *p, int64_t nframes, const double *Xs, d
 #endif
 #ifdef DTX_SP04_AVX2_VARIANT
         if (p->avx2)
-            solve_group_avx2(p, &p->workers[tid], nfr, xs, xt, res);
+            solve_group_avx2(p, dtx__worker(&p->workers, tid), nfr, xs, xt, res);
         else
 #endif
-            solve_group_baseline(p, &p->workers[tid], nfr, xs, xt, res);
+            solve_group_baseline(p, dtx__worker(&p->workers, tid), nfr, xs, xt, res);
     }
     return DTX_OK;
 }
@@ -1278,10 +1228,10 @@ double dtx_sp04_plan_bare_solve_seconds_group(dtx_sp04_plan *p, int frames_per_s
         return -1.0;
     }
     cholmod_solve2(CHOLMOD_A, p->L, B, NULL, &X, NULL, &Y, &E, &cc); /* warm-up */
-    t0 = now_seconds();
+    t0 = dtx__now_seconds();
     for (int r = 0; r < nrep; r++)
         cholmod_solve2(CHOLMOD_A, p->L, B, NULL, &X, NULL, &Y, &E, &cc);
-    t = (now_seconds() - t0) / (nrep > 0 ? nrep : 1) / frames_per_solve;
+    t = (dtx__now_seconds() - t0) / (nrep > 0 ? nrep : 1) / frames_per_solve;
     cholmod_free_dense(&B, &cc);
     cholmod_free_dense(&X, &cc);
     cholmod_free_dense(&Y, &cc);

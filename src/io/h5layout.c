@@ -12,6 +12,7 @@
 #include "h5layout.h"
 #include "h5guard.h"
 #include "h5mesh_attrs.h"
+#include "h5util.h"
 #include "file_util.h"
 #include "write_reason.h"
 
@@ -34,15 +35,6 @@
 /* Chunk cache: room for one chunk, within these bounds. */
 #define CACHE_MIN_BYTES ((size_t)1 << 20)
 #define CACHE_MAX_BYTES ((size_t)256 << 20)
-/* gzip cannot compress better than about 1032:1. */
-#define GZIP_MAX_RATIO 1100u
-
-#define CLOSE_ID(fn, id)                                                                       \
-    do {                                                                                       \
-        if ((id) > 0)                                                                          \
-            (void)fn(id);                                                                      \
-        (id) = H5I_INVALID_HID;                                                                \
-    } while (0)
 
 /* ======================================================== error messages */
 
@@ -1124,7 +1116,7 @@ static dtx_status check_storage(hid_t file, hid_t dset, const char *path, const 
         st = h5err(err, file, path, "cannot inspect the dataset's filters");
         goto done;
     }
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > stored + 64 : need > stored) {
+    if (dtx_h5_short_of_storage(need, stored, nfilt)) {
         char text[200];
         dims_text(dims, rank, text, sizeof text);
         st = ferr(err, DTX_EFORMAT, file, path,
@@ -1740,6 +1732,45 @@ static dtx_status check_linked_mesh(hid_t file, const char *owner, const char *w
     return DTX_OK;
 }
 
+/* The checks a group of frames (a sequence, a result) passes before it is
+ * created: its size, gzip only in serial, and a chunk that fits HDF5's
+ * limit.  kind names the group in the size message ("sequence", "result"),
+ * gzip_case the parallel file in the gzip one.  Sets *parallel and
+ * *chunk_out. */
+static dtx_status check_new_frames(hid_t file, const char *group, const char *kind,
+                                   const char *gzip_case, int64_t nframes, int32_t nv, int f64,
+                                   int chunk_frames, int gzip, int *parallel, int *chunk_out,
+                                   dtx_error *err)
+{
+    if (nframes < 1 || nframes > INT32_MAX || nv < 1)
+        return ferr(err, DTX_EINVAL, file, group, "bad %s size: %lld frames of %d vertices", kind,
+                    (long long)nframes, (int)nv);
+    *parallel = dtx_h5_is_parallel(file);
+    if (gzip && *parallel)
+        return ferr(err, DTX_EINVAL, file, group,
+                    "gzip cannot be used %s in parallel (HDF5 1.10 cannot write filtered "
+                    "datasets through MPI-IO)",
+                    gzip_case);
+    *chunk_out = pick_chunk_frames(chunk_frames, nframes, nv, f64);
+    if (*chunk_out == 0)
+        return ferr(err, DTX_EINVAL, file, group,
+                    "one frame of %d vertices exceeds HDF5's 4 GiB chunk limit", (int)nv);
+    return DTX_OK;
+}
+
+/* The soft link name -> mesh_group in the group g (at path) of a sequence
+ * or a result. */
+static dtx_status link_mesh(hid_t file, hid_t g, const char *path, const char *name,
+                            const char *mesh_group, dtx_error *err)
+{
+    hid_t lcpl = intermediate_lcpl();
+    dtx_status st = DTX_OK;
+    if (lcpl < 0 || H5Lcreate_soft(mesh_group, g, name, lcpl, H5P_DEFAULT) < 0)
+        st = h5err(err, file, path, "cannot create the link %s -> %s", name, mesh_group);
+    CLOSE_ID(H5Pclose, lcpl);
+    return st;
+}
+
 /* ============================================================== sequences */
 
 dtx_status dtx_h5_seq_create(hid_t file, const char *group, const char *rest_mesh_group,
@@ -1747,23 +1778,14 @@ dtx_status dtx_h5_seq_create(hid_t file, const char *group, const char *rest_mes
                              dtx_h5_seq *seq, dtx_error *err)
 {
     dtx_status st;
-    hid_t lcpl = H5I_INVALID_HID;
     int made;
     memset(seq, 0, sizeof *seq);
     seq->file = file;
     seq->group = seq->dset = H5I_INVALID_HID;
-    if (nframes < 1 || nframes > INT32_MAX || nv < 1)
-        return ferr(err, DTX_EINVAL, file, group, "bad sequence size: %lld frames of %d "
-                    "vertices", (long long)nframes, (int)nv);
-    seq->parallel = dtx_h5_is_parallel(file);
-    if (gzip && seq->parallel)
-        return ferr(err, DTX_EINVAL, file, group,
-                    "gzip cannot be used on a file opened in parallel (HDF5 1.10 cannot "
-                    "write filtered datasets through MPI-IO)");
-    seq->chunk_frames = pick_chunk_frames(chunk_frames, nframes, nv, f64);
-    if (seq->chunk_frames == 0)
-        return ferr(err, DTX_EINVAL, file, group,
-                    "one frame of %d vertices exceeds HDF5's 4 GiB chunk limit", (int)nv);
+    if ((st = check_new_frames(file, group, "sequence", "on a file opened", nframes, nv, f64,
+                               chunk_frames, gzip, &seq->parallel, &seq->chunk_frames, err)) !=
+        DTX_OK)
+        return st;
     if ((st = check_linked_mesh(file, group, "rest mesh", rest_mesh_group, nv, err)) != DTX_OK)
         return st;
     if ((st = begin_group(file, group, 0, seq->path, &seq->group, err)) != DTX_OK)
@@ -1776,17 +1798,11 @@ dtx_status dtx_h5_seq_create(hid_t file, const char *group, const char *rest_mes
                                gzip, &seq->dset, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_str(seq->group, ".", "rest_mesh", rest_mesh_group, err)) !=
             DTX_OK ||
-        (st = dtx_h5_write_attr_int(seq->group, ".", "nframes", nframes, err)) != DTX_OK)
+        (st = dtx_h5_write_attr_int(seq->group, ".", "nframes", nframes, err)) != DTX_OK ||
+        (st = link_mesh(file, seq->group, seq->path, "rest", rest_mesh_group, err)) != DTX_OK)
         goto fail;
-    lcpl = intermediate_lcpl();
-    if (lcpl < 0 || H5Lcreate_soft(rest_mesh_group, seq->group, "rest", lcpl, H5P_DEFAULT) < 0) {
-        st = h5err(err, file, seq->path, "cannot create the link rest -> %s", rest_mesh_group);
-        goto fail;
-    }
-    CLOSE_ID(H5Pclose, lcpl);
     return DTX_OK;
 fail:
-    CLOSE_ID(H5Pclose, lcpl);
     made = seq->group >= 0;
     dtx_h5_seq_close(seq);
     if (made) { /* leave no temporary group behind */
@@ -2512,23 +2528,14 @@ dtx_status dtx_h5_result_create(hid_t file, const char *group, const dtx_h5_prov
 {
     static const double nan_fill = NAN;
     static const uint8_t zero_fill = 0;
-    hid_t lcpl = H5I_INVALID_HID;
     dtx_status st;
     result_init(res, file);
     if (!prov || !prov->target_mesh)
         return ferr(err, DTX_EINVAL, file, group, "no target mesh given for the result");
-    if (nframes < 1 || nframes > INT32_MAX || nv < 1)
-        return ferr(err, DTX_EINVAL, file, group, "bad result size: %lld frames of %d vertices",
-                    (long long)nframes, (int)nv);
-    res->parallel = dtx_h5_is_parallel(file);
-    if (gzip && res->parallel)
-        return ferr(err, DTX_EINVAL, file, group,
-                    "gzip cannot be used for a result written in parallel (HDF5 1.10 cannot "
-                    "write filtered datasets through MPI-IO)");
-    res->chunk_frames = pick_chunk_frames(chunk_frames, nframes, nv, f64);
-    if (res->chunk_frames == 0)
-        return ferr(err, DTX_EINVAL, file, group,
-                    "one frame of %d vertices exceeds HDF5's 4 GiB chunk limit", (int)nv);
+    if ((st = check_new_frames(file, group, "result", "for a result written", nframes, nv, f64,
+                               chunk_frames, gzip, &res->parallel, &res->chunk_frames, err)) !=
+        DTX_OK)
+        return st;
     if ((st = check_linked_mesh(file, group, "target mesh", prov->target_mesh, nv, err)) !=
         DTX_OK)
         return st;
@@ -2544,15 +2551,9 @@ dtx_status dtx_h5_result_create(hid_t file, const char *group, const dtx_h5_prov
                                &nan_fill, nframes, err)) != DTX_OK ||
         (st = create_filled_1d(res->group, "frame_done", H5T_STD_U8LE, H5T_NATIVE_UINT8,
                                &zero_fill, nframes, err)) != DTX_OK ||
-        (st = open_result_1d(res, err)) != DTX_OK)
+        (st = open_result_1d(res, err)) != DTX_OK ||
+        (st = link_mesh(file, res->group, res->path, "target", prov->target_mesh, err)) != DTX_OK)
         goto fail;
-    lcpl = intermediate_lcpl();
-    if (lcpl < 0 ||
-        H5Lcreate_soft(prov->target_mesh, res->group, "target", lcpl, H5P_DEFAULT) < 0) {
-        st = h5err(err, file, res->path, "cannot create the link target -> %s",
-                   prov->target_mesh);
-        goto fail;
-    }
     if ((st = dtx_h5_write_attr_str(res->group, ".", "method", prov->method, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_str(res->group, ".", "job", prov->job, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_str(res->group, ".", "parameters", prov->parameters, err)) !=
@@ -2567,10 +2568,8 @@ dtx_status dtx_h5_result_create(hid_t file, const char *group, const dtx_h5_prov
                                     err)) != DTX_OK ||
         (st = dtx_h5_write_attr_int(res->group, ".", "complete", 0, err)) != DTX_OK)
         goto fail;
-    CLOSE_ID(H5Pclose, lcpl);
     return DTX_OK;
 fail:
-    CLOSE_ID(H5Pclose, lcpl);
     dtx_h5_result_close(res);
     return st;
 }

@@ -19,6 +19,7 @@
 #include "h5layout.h"
 #include "h5guard.h"
 #include "h5mesh_attrs.h"
+#include "h5util.h"
 
 #include <cjson/cJSON.h>
 
@@ -34,14 +35,6 @@
 #define MAX_DSETS 8
 #define MAX_ATTRS 24
 #define MAX_REFS 8
-#define GZIP_MAX_RATIO 1100u
-
-#define CLOSE_ID(fn, id)                                                                       \
-    do {                                                                                       \
-        if ((id) > 0)                                                                          \
-            (void)fn(id);                                                                      \
-        (id) = H5I_INVALID_HID;                                                                \
-    } while (0)
 
 typedef struct {
     char name[32];
@@ -183,6 +176,24 @@ static void DTX_PRINTF(3, 4) problem(vctx *c, const char *where, const char *fmt
         (void)cat5(c->first, sizeof c->first, c->fname, ": ", where, ": ", msg);
     c->nproblems++;
     c->cur_problems++;
+}
+
+/* Opens the dataset at full with its type, creation list and, when sp is
+ * not NULL, its dataspace.  Returns 0 after reporting "cannot be opened"
+ * when any of them fails; what did open is left in the ids for the caller
+ * to close. */
+static int open_dataset(vctx *c, const char *full, hid_t *d, hid_t *ft, hid_t *sp, hid_t *dcpl)
+{
+    *d = H5Dopen2(c->file, full, H5P_DEFAULT);
+    *ft = *d > 0 ? H5Dget_type(*d) : H5I_INVALID_HID;
+    *dcpl = *d > 0 ? H5Dget_create_plist(*d) : H5I_INVALID_HID;
+    if (sp)
+        *sp = *d > 0 ? H5Dget_space(*d) : H5I_INVALID_HID;
+    if (*d < 0 || *ft < 0 || *dcpl < 0 || (sp && *sp < 0)) {
+        problem(c, full, "cannot be opened");
+        return 0;
+    }
+    return 1;
 }
 
 /* The message of a dtx_error without its leading "FILE: " and "PATH: ". */
@@ -405,14 +416,8 @@ static void check_dataset(vctx *c, const char *group, const cJSON *spec)
         problem(c, full, "is not a dataset");
         return;
     }
-    d = H5Dopen2(c->file, full, H5P_DEFAULT);
-    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
-    sp = d > 0 ? H5Dget_space(d) : H5I_INVALID_HID;
-    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
-    if (d < 0 || ft < 0 || sp < 0 || dcpl < 0) {
-        problem(c, full, "cannot be opened");
+    if (!open_dataset(c, full, &d, &ft, &sp, &dcpl))
         goto done;
-    }
     cls = H5Tget_class(ft);
     if (cls == H5T_INTEGER)
         sign = H5Tget_sign(ft);
@@ -503,17 +508,12 @@ static void *read_values(vctx *c, const char *group, const vdset *rec, hid_t mty
         return NULL;
     for (int k = 0; k < rec->rank; k++)
         *npts *= (size_t)rec->dims[k];
-    d = H5Dopen2(c->file, full, H5P_DEFAULT);
-    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
-    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
-    if (d < 0 || ft < 0 || dcpl < 0) {
-        problem(c, full, "cannot be opened");
+    if (!open_dataset(c, full, &d, &ft, NULL, &dcpl))
         goto done;
-    }
     need = (uint64_t)*npts * H5Tget_size(ft);
     stored = H5Dget_storage_size(d);
     nfilt = H5Pget_nfilters(dcpl);
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > stored + 64 : need > stored) {
+    if (dtx_h5_short_of_storage(need, stored, nfilt)) {
         problem(c, full, "needs %llu bytes, but only %llu %sbytes are stored: the dataset was "
                 "never fully written", (unsigned long long)need, (unsigned long long)stored,
                 nfilt > 0 ? "compressed " : "");
@@ -833,20 +833,13 @@ static void check_finite_frames(vctx *c, const char *group, const cJSON *spec)
     }
     for (hsize_t f = 0; f < T; f++)
         ndone += !flags || flags[f] == 1;
-    d = H5Dopen2(c->file, full, H5P_DEFAULT);
-    ft = d > 0 ? H5Dget_type(d) : H5I_INVALID_HID;
-    dcpl = d > 0 ? H5Dget_create_plist(d) : H5I_INVALID_HID;
-    fs = d > 0 ? H5Dget_space(d) : H5I_INVALID_HID;
-    if (d < 0 || ft < 0 || dcpl < 0 || fs < 0) {
-        problem(c, full, "cannot be opened");
+    if (!open_dataset(c, full, &d, &ft, &fs, &dcpl))
         goto done;
-    }
     /* The frames to read must be stored: a forged shape cannot make the
      * check read terabytes of fill values. */
     need = (uint64_t)ndone * fvals * H5Tget_size(ft);
     nfilt = H5Pget_nfilters(dcpl);
-    if (nfilt > 0 ? need / GZIP_MAX_RATIO > H5Dget_storage_size(d) + 64
-                  : need > H5Dget_storage_size(d)) {
+    if (dtx_h5_short_of_storage(need, H5Dget_storage_size(d), nfilt)) {
         problem(c, full, "%llu frame%s%s need %llu bytes, but only %llu %sbytes are stored",
                 (unsigned long long)ndone, ndone == 1 ? "" : "s", dn ? " marked done" : "",
                 (unsigned long long)need, (unsigned long long)H5Dget_storage_size(d),

@@ -358,6 +358,22 @@ static dtx_status check_child(const cJSON *root, const cJSON *s, char *spath, si
     return st;
 }
 
+/* Checks every member of the object kw, the keyword kw->string ("$defs",
+ * "properties") of the schema at spath, as a schema of its own. */
+static dtx_status check_member_schemas(const cJSON *root, const cJSON *kw, char *spath,
+                                       size_t spsize, int depth, char *msg, size_t msgsize)
+{
+    for (const cJSON *m = kw->child; m; m = m->next) {
+        size_t len = strlen(spath);
+        dtx_status st;
+        dtx_json_pointer_append(spath, spsize, kw->string);
+        st = check_child(root, m, spath, spsize, m->string, -1, depth, msg, msgsize);
+        spath[len] = '\0';
+        if (st)
+            return st;
+    }
+    return DTX_OK;
+}
 
 /* Patterns dtx accepts: POSIX extended regular expressions of at most
  * PATTERN_MAX bytes in which no quantifier (*, +, ?, {m,n}) follows another
@@ -420,17 +436,10 @@ static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, s
             if (strcmp(k, ignored_keywords[i]) == 0)
                 ignored = 1;
         if (strcmp(k, "$defs") == 0) {
-            const cJSON *d;
             if (!cJSON_IsObject(kw))
                 return schema_err(msg, msgsize, spath, "$defs must be an object");
-            for (d = kw->child; d; d = d->next) {
-                size_t len = strlen(spath);
-                dtx_json_pointer_append(spath, spsize, "$defs");
-                st = check_child(root, d, spath, spsize, d->string, -1, depth, msg, msgsize);
-                spath[len] = '\0';
-                if (st)
-                    return st;
-            }
+            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) != DTX_OK)
+                return st;
         } else if (ignored) {
             continue;
         } else if (strcmp(k, "type") == 0) {
@@ -454,17 +463,10 @@ static dtx_status check_schema(const cJSON *root, const cJSON *s, char *spath, s
         } else if (strcmp(k, "const") == 0) {
             continue;
         } else if (strcmp(k, "properties") == 0) {
-            const cJSON *p;
             if (!cJSON_IsObject(kw))
                 return schema_err(msg, msgsize, spath, "\"properties\" must be an object");
-            for (p = kw->child; p; p = p->next) {
-                size_t len = strlen(spath);
-                dtx_json_pointer_append(spath, spsize, "properties");
-                st = check_child(root, p, spath, spsize, p->string, -1, depth, msg, msgsize);
-                spath[len] = '\0';
-                if (st)
-                    return st;
-            }
+            if ((st = check_member_schemas(root, kw, spath, spsize, depth, msg, msgsize)) != DTX_OK)
+                return st;
         } else if (strcmp(k, "required") == 0) {
             const cJSON *r;
             if (!cJSON_IsArray(kw))
@@ -577,6 +579,20 @@ static dtx_status duplicate_error(vctx *c, const cJSON *m, verr *e)
     return fail(c, e, DTX_EJOB, "duplicate key %s", ks);
 }
 
+/* One level deeper into the document (c->depth + 1), within the limits on
+ * the depth and on the steps a validation may take. */
+static dtx_status descend(vctx *c, verr *e)
+{
+    if (c->depth >= MAX_DEPTH)
+        return fail(c, e, DTX_EJOB, "nested too deeply (more than %d levels)", MAX_DEPTH);
+    if (--c->steps_left < 0)
+        return fail(c, e, DTX_EINVAL,
+                    "schema error: validating this document takes too many steps (oneOf / "
+                    "anyOf branches that refer back to themselves?)");
+    c->depth++;
+    return DTX_OK;
+}
+
 /* The checks every value gets, schema or not: finite numbers, no repeated
  * keys, recursively. */
 static dtx_status walk_generic(vctx *c, const cJSON *d, verr *e)
@@ -591,13 +607,8 @@ static dtx_status walk_generic(vctx *c, const cJSON *d, verr *e)
         return DTX_OK;
     if (cJSON_IsObject(d) && (dup = first_duplicate(d)) == -2)
         return fail(c, e, DTX_ENOMEM, "out of memory");
-    if (c->depth >= MAX_DEPTH)
-        return fail(c, e, DTX_EJOB, "nested too deeply (more than %d levels)", MAX_DEPTH);
-    if (--c->steps_left < 0)
-        return fail(c, e, DTX_EINVAL,
-                    "schema error: validating this document takes too many steps (oneOf / "
-                    "anyOf branches that refer back to themselves?)");
-    c->depth++;
+    if ((st = descend(c, e)) != DTX_OK)
+        return st;
     for (m = d->child; m; m = m->next, i++) {
         size_t len = c->ptrlen;
         if (i == dup) {
@@ -1001,13 +1012,8 @@ static dtx_status validate(vctx *c, const cJSON *s, const cJSON *d, verr *e)
         return walk_generic(c, d, e);
     if (cJSON_IsFalse(s))
         return fail(c, e, DTX_EJOB, "no value is allowed here");
-    if (c->depth >= MAX_DEPTH)
-        return fail(c, e, DTX_EJOB, "nested too deeply (more than %d levels)", MAX_DEPTH);
-    if (--c->steps_left < 0)
-        return fail(c, e, DTX_EINVAL,
-                    "schema error: validating this document takes too many steps (oneOf / "
-                    "anyOf branches that refer back to themselves?)");
-    c->depth++;
+    if ((st = descend(c, e)) != DTX_OK)
+        return st;
 
     /* $ref applies the referenced schema in place. */
     kw = cJSON_GetObjectItemCaseSensitive(s, "$ref");

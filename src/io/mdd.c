@@ -21,7 +21,9 @@ dtx_status dtx_mdd_begin(dtx_mdd_writer *w, const char *path, int32_t num_points
     unsigned char b[8];
     dtx_status st;
     memset(w, 0, sizeof *w);
-    if (num_points < 1 || num_samples < 1 || !times)
+    if ((st = dtx_point_cache_check(path, num_points, num_samples, err)) != DTX_OK)
+        return st;
+    if (!times)
         return dtx_seterr(err, DTX_EINVAL,
                           "%s: a point cache needs at least one point and one sample (got %d "
                           "points, %d samples)",
@@ -32,77 +34,28 @@ dtx_status dtx_mdd_begin(dtx_mdd_writer *w, const char *path, int32_t num_points
                               "%s: sample %d (0-based): time %g s is not finite or not after "
                               "the previous sample's",
                               path, (int)k, (double)times[k]);
-    w->buf = dtx_alloc((size_t)num_points, 12, 0);
-    if (!w->buf)
-        return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for %d points", path,
-                          (int)num_points);
-    st = dtx_atomic_open(&w->af, path, err);
-    if (st != DTX_OK) {
-        free(w->buf);
-        memset(w, 0, sizeof *w);
+    if ((st = dtx_point_cache_open(&w->pc, path, num_points, num_samples, 1, err)) != DTX_OK)
         return st;
-    }
-    w->num_points = num_points;
-    w->num_samples = num_samples;
     dtx_put_be32(b, (uint32_t)num_samples);
     dtx_put_be32(b + 4, (uint32_t)num_points);
-    fwrite(b, 1, 8, w->af.fp); /* errors: caught by the commit */
+    fwrite(b, 1, 8, w->pc.af.fp); /* errors: caught by the commit */
     for (int32_t k = 0; k < num_samples; k++) {
         dtx_put_bef32(b, times[k]);
-        fwrite(b, 1, 4, w->af.fp);
+        fwrite(b, 1, 4, w->pc.af.fp);
     }
     return DTX_OK;
 }
 
-void dtx_mdd_abort(dtx_mdd_writer *w)
-{
-    dtx_atomic_abort(&w->af);
-    free(w->buf);
-    memset(w, 0, sizeof *w);
-}
+void dtx_mdd_abort(dtx_mdd_writer *w) { dtx_point_cache_abort(&w->pc); }
 
 dtx_status dtx_mdd_write_sample(dtx_mdd_writer *w, const double *X, dtx_error *err)
 {
-    if (!w->af.fp)
-        return dtx_seterr(err, DTX_EINVAL, "point cache writer is not open");
-    if (w->written >= w->num_samples) {
-        dtx_status st = dtx_seterr(err, DTX_EINVAL, "%s: more than the %d samples announced",
-                                   w->af.path, (int)w->num_samples);
-        dtx_mdd_abort(w);
-        return st;
-    }
-    for (int64_t i = 0; i < 3 * (int64_t)w->num_points; i++) {
-        /* Out-of-range double -> float conversion is undefined: test first. */
-        if (!(isfinite(X[i]) && fabs(X[i]) <= FLT_MAX)) {
-            dtx_status st = dtx_seterr(
-                err, DTX_ENONFINITE,
-                "%s: sample %d, point %lld (0-based): coordinate %g is not a finite float32",
-                w->af.path, (int)w->written, (long long)(i / 3), X[i]);
-            dtx_mdd_abort(w);
-            return st;
-        }
-        dtx_put_bef32(w->buf + 4 * i, (float)X[i]);
-    }
-    fwrite(w->buf, 12, (size_t)w->num_points, w->af.fp);
-    w->written++;
-    return DTX_OK;
+    return dtx_point_cache_write(&w->pc, X, NULL, err);
 }
 
 dtx_status dtx_mdd_finish(dtx_mdd_writer *w, dtx_error *err)
 {
-    dtx_status st;
-    if (!w->af.fp)
-        return dtx_seterr(err, DTX_EINVAL, "point cache writer is not open");
-    if (w->written != w->num_samples) {
-        st = dtx_seterr(err, DTX_EINVAL, "%s: %d of the %d samples announced were written",
-                        w->af.path, (int)w->written, (int)w->num_samples);
-        dtx_mdd_abort(w);
-        return st;
-    }
-    st = dtx_atomic_commit(&w->af, err);
-    free(w->buf);
-    memset(w, 0, sizeof *w);
-    return st;
+    return dtx_point_cache_finish(&w->pc, err);
 }
 
 /* ---------------------------------------------------------------- reading */

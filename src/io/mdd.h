@@ -30,7 +30,7 @@
 #ifndef DTX_MDD_H
 #define DTX_MDD_H
 
-#include "atomic_file.h"
+#include "point_cache.h"
 #include "status.h"
 
 #include <stddef.h>
@@ -38,10 +38,7 @@
 
 /* An MDD file being written.  Fields are private. */
 typedef struct {
-    dtx_atomic_file af;
-    int32_t num_points, num_samples;
-    int32_t written;    /* samples written so far */
-    unsigned char *buf; /* one sample, big-endian (12 * num_points bytes) */
+    dtx_point_cache pc; /* big-endian */
 } dtx_mdd_writer;
 
 /* Starts writing the cache at path: checks num_points >= 1, num_samples

@@ -29,6 +29,23 @@ void dtx_warnf(const dtx_warner *w, const char *fmt, ...)
     w->fn(w->ctx, msg);
 }
 
+void dtx_warn_fanned(const dtx_warner *w, const char *name, int64_t npoly, long first_line)
+{
+    if (npoly > 0)
+        dtx_warnf(w,
+                  "%s: %lld polygons with more than 3 vertices were fan-triangulated (the first "
+                  "at line %ld)",
+                  name, (long long)npoly, first_line);
+}
+
+void dtx_mesh_take(dtx_mesh *out, int64_t nv, int64_t nf, double *V, int32_t *F)
+{
+    out->nv = (int32_t)nv;
+    out->nf = (int32_t)nf;
+    out->V = V;
+    out->F = F;
+}
+
 int dtx_has_nul(const char *buf, size_t len) { return len > 0 && memchr(buf, '\0', len) != NULL; }
 
 void dtx_lines_init(dtx_lines *it, const char *buf, size_t len)

@@ -41,6 +41,13 @@ typedef dtx_status (*dtx_mesh_parse_fn)(const char *name, const char *buf, size_
 dtx_status dtx_mesh_read_with(const char *path, dtx_mesh_parse_fn parse, dtx_mesh *out,
                               const dtx_warner *w, dtx_error *err);
 
+/* The OBJ and OFF readers' warning that npoly polygons (the first at line
+ * first_line) were fan-triangulated; nothing when npoly is 0. */
+void dtx_warn_fanned(const dtx_warner *w, const char *name, int64_t npoly, long first_line);
+
+/* Hands a parsed mesh to out: V (nv x 3) and F (nf x 3), now out's. */
+void dtx_mesh_take(dtx_mesh *out, int64_t nv, int64_t nf, double *V, int32_t *F);
+
 /* Formats a warning (printf-style) and hands it to w->fn; does nothing when
  * w or w->fn is NULL. */
 void dtx_warnf(const dtx_warner *w, const char *fmt, ...)

@@ -251,18 +251,11 @@ dtx_status dtx_obj_parse(const char *name, const char *buf, size_t len, dtx_mesh
         st = dtx_seterr(err, DTX_EPARSE, "%s: no faces (no 'f' lines)", name);
         goto fail;
     }
-    if (npoly > 0)
-        dtx_warnf(w,
-                  "%s: %lld polygons with more than 3 vertices were fan-triangulated (the first "
-                  "at line %ld)",
-                  name, (long long)npoly, poly_line);
+    dtx_warn_fanned(w, name, npoly, poly_line);
     if (nunknown > 0)
         dtx_warnf(w, "%s:%ld: unknown keyword '%s' ignored (%lld such lines in the file)", name,
                   unknown_line, unknown_kw, (long long)nunknown);
-    out->nv = (int32_t)nv;
-    out->nf = (int32_t)cur_t;
-    out->V = V;
-    out->F = F;
+    dtx_mesh_take(out, nv, cur_t, V, F);
     return DTX_OK;
 
 fail:

@@ -252,15 +252,8 @@ dtx_status dtx_off_parse(const char *name, const char *buf, size_t len, dtx_mesh
     }
     if (content_line(&it, &b, &e))
         dtx_warnf(w, "%s:%ld: data after the last face ignored", name, it.line);
-    if (npoly > 0)
-        dtx_warnf(w,
-                  "%s: %lld polygons with more than 3 vertices were fan-triangulated (the first "
-                  "at line %ld)",
-                  name, (long long)npoly, poly_line);
-    out->nv = (int32_t)nv;
-    out->nf = (int32_t)nt;
-    out->V = V;
-    out->F = F;
+    dtx_warn_fanned(w, name, npoly, poly_line);
+    dtx_mesh_take(out, nv, nt, V, F);
     return DTX_OK;
 
 fail:

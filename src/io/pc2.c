@@ -23,27 +23,16 @@ dtx_status dtx_pc2_begin(dtx_pc2_writer *w, const char *path, int32_t num_points
     unsigned char head[DTX_PC2_HEADER_BYTES];
     dtx_status st;
     memset(w, 0, sizeof *w);
-    if (num_points < 1 || num_samples < 1)
-        return dtx_seterr(err, DTX_EINVAL,
-                          "%s: a point cache needs at least one point and one sample (got %d "
-                          "points, %d samples)",
-                          path, (int)num_points, (int)num_samples);
+    if ((st = dtx_point_cache_check(path, num_points, num_samples, err)) != DTX_OK)
+        return st;
     /* 12 * 2^31 * 2^31 < 2^63: the size always fits; no check needed beyond
      * the signs above. */
     if (!isfinite(start_frame) || !isfinite(sample_rate) || !(sample_rate > 0.0f))
         return dtx_seterr(err, DTX_EINVAL,
                           "%s: start frame %g and sample rate %g must be finite, the rate > 0",
                           path, (double)start_frame, (double)sample_rate);
-    w->buf = dtx_alloc((size_t)num_points, 12, 0);
-    if (!w->buf)
-        return dtx_seterr(err, DTX_ENOMEM, "%s: out of memory for %d points", path,
-                          (int)num_points);
-    st = dtx_atomic_open(&w->af, path, err);
-    if (st != DTX_OK) {
-        free(w->buf);
-        memset(w, 0, sizeof *w);
+    if ((st = dtx_point_cache_open(&w->pc, path, num_points, num_samples, 0, err)) != DTX_OK)
         return st;
-    }
     w->h.version = DTX_PC2_VERSION;
     w->h.num_points = num_points;
     w->h.num_samples = num_samples;
@@ -56,71 +45,29 @@ dtx_status dtx_pc2_begin(dtx_pc2_writer *w, const char *path, int32_t num_points
     dtx_put_lef32(head + 20, start_frame);
     dtx_put_lef32(head + 24, sample_rate);
     dtx_put_le32(head + 28, (uint32_t)num_samples);
-    fwrite(head, 1, sizeof head, w->af.fp); /* errors: caught by the commit */
+    fwrite(head, 1, sizeof head, w->pc.af.fp); /* errors: caught by the commit */
     return DTX_OK;
 }
 
 void dtx_pc2_abort(dtx_pc2_writer *w)
 {
-    dtx_atomic_abort(&w->af);
-    free(w->buf);
+    dtx_point_cache_abort(&w->pc);
     memset(w, 0, sizeof *w);
-}
-
-/* Exactly one of Xd, Xf is non-NULL. */
-static dtx_status write_sample(dtx_pc2_writer *w, const double *Xd, const float *Xf, dtx_error *err)
-{
-    int32_t np = w->h.num_points;
-    if (!w->af.fp)
-        return dtx_seterr(err, DTX_EINVAL, "point cache writer is not open");
-    if (w->written >= w->h.num_samples) {
-        dtx_status st = dtx_seterr(err, DTX_EINVAL, "%s: more than the %d samples announced",
-                                   w->af.path, (int)w->h.num_samples);
-        dtx_pc2_abort(w);
-        return st;
-    }
-    for (int64_t i = 0; i < 3 * (int64_t)np; i++) {
-        /* Out-of-range double -> float conversion is undefined: test first. */
-        int ok = Xd ? isfinite(Xd[i]) && fabs(Xd[i]) <= FLT_MAX : isfinite(Xf[i]);
-        float f = ok ? (Xd ? (float)Xd[i] : Xf[i]) : 0.0f;
-        if (!ok) {
-            dtx_status st = dtx_seterr(
-                err, DTX_ENONFINITE,
-                "%s: sample %d, point %lld (0-based): coordinate %g is not a finite float32",
-                w->af.path, (int)w->written, (long long)(i / 3), Xd ? Xd[i] : (double)Xf[i]);
-            dtx_pc2_abort(w);
-            return st;
-        }
-        dtx_put_lef32(w->buf + 4 * i, f);
-    }
-    fwrite(w->buf, 12, (size_t)np, w->af.fp);
-    w->written++;
-    return DTX_OK;
 }
 
 dtx_status dtx_pc2_write_sample(dtx_pc2_writer *w, const double *X, dtx_error *err)
 {
-    return write_sample(w, X, NULL, err);
+    return dtx_point_cache_write(&w->pc, X, NULL, err);
 }
 
 dtx_status dtx_pc2_write_sample_f32(dtx_pc2_writer *w, const float *X, dtx_error *err)
 {
-    return write_sample(w, NULL, X, err);
+    return dtx_point_cache_write(&w->pc, NULL, X, err);
 }
 
 dtx_status dtx_pc2_finish(dtx_pc2_writer *w, dtx_error *err)
 {
-    dtx_status st;
-    if (!w->af.fp)
-        return dtx_seterr(err, DTX_EINVAL, "point cache writer is not open");
-    if (w->written != w->h.num_samples) {
-        st = dtx_seterr(err, DTX_EINVAL, "%s: %d of the %d samples announced were written",
-                        w->af.path, (int)w->written, (int)w->h.num_samples);
-        dtx_pc2_abort(w);
-        return st;
-    }
-    st = dtx_atomic_commit(&w->af, err);
-    free(w->buf);
+    dtx_status st = dtx_point_cache_finish(&w->pc, err);
     memset(w, 0, sizeof *w);
     return st;
 }

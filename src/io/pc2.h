@@ -31,7 +31,7 @@
 #ifndef DTX_PC2_H
 #define DTX_PC2_H
 
-#include "atomic_file.h"
+#include "point_cache.h"
 #include "status.h"
 
 #include <stddef.h>
@@ -52,10 +52,8 @@ typedef struct {
 
 /* A PC2 file being written.  Fields are private. */
 typedef struct {
-    dtx_atomic_file af;
+    dtx_point_cache pc; /* little-endian */
     dtx_pc2_header h;
-    int32_t written;    /* samples written so far */
-    unsigned char *buf; /* one sample, little-endian (12 * num_points bytes) */
 } dtx_pc2_writer;
 
 /* Starts writing the cache at path: checks the header (num_points >= 1,

@@ -644,10 +644,7 @@ static dtx_status ply_parse_impl(const char *name, const char *buf, size_t len, 
     if (npoly > 0)
         dtx_warnf(w, "%s: %lld polygons with more than 3 vertices were fan-triangulated", name,
                   (long long)npoly);
-    out->nv = (int32_t)nv;
-    out->nf = (int32_t)nt;
-    out->V = V;
-    out->F = F;
+    dtx_mesh_take(out, nv, nt, V, F);
     if (a_out && (st = ply_attrs_build(name, &h, vel, A, out, a_out, aw, err)) != DTX_OK) {
         memset(out, 0, sizeof *out);
         goto fail;

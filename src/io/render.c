@@ -208,6 +208,20 @@ typedef struct {
     int x0, y0, x1, y1; /* the panel's samples [x0, x1) x [y0, y1) */
 } panel_prep;
 
+/* Work item w of a banded pass (nbands bands of band_rows rows per panel):
+ * panel *i and its rows [*ya, *yb).  Returns 0 when the band is empty (the
+ * panel's last bands). */
+static int band_of(const panel_prep *pp, long long w, int nbands, int band_rows, int *i, int *ya,
+                   int *yb)
+{
+    const panel_prep *q;
+    *i = (int)(w / nbands);
+    q = pp + *i;
+    *ya = q->y0 + (int)(w % nbands) * band_rows;
+    *yb = *ya + band_rows < q->y1 ? *ya + band_rows : q->y1;
+    return *ya < *yb;
+}
+
 /* Component of each face, numbered in order of first face.  comp and label
  * are nv-long scratch arrays. */
 static int face_components(const dtx_render_panel *p, int32_t *fcomp, int32_t *comp,
@@ -750,10 +764,8 @@ dtx_status dtx_render_panels(const dtx_render_panel *panels, int k, const double
     }
 #pragma omp parallel for schedule(dynamic, 1)
     for (long long w = 0; w < nwork; w++) {
-        int i = (int)(w / nbands), bnd = (int)(w % nbands);
-        int ya = pp[i].y0 + bnd * band_rows, yb = ya + band_rows;
-        yb = yb < pp[i].y1 ? yb : pp[i].y1;
-        if (ya < yb)
+        int i, ya, yb;
+        if (band_of(pp, w, nbands, band_rows, &i, &ya, &yb))
             draw_band(&R, panels + i, pp + i, ya, yb);
     }
     if (o->outline) {
@@ -762,10 +774,8 @@ dtx_status dtx_render_panels(const dtx_render_panel *panels, int k, const double
         float thr = (float)(6.0 * ss);
 #pragma omp parallel for schedule(dynamic, 1)
         for (long long w = 0; w < nwork; w++) {
-            int i = (int)(w / nbands), bnd = (int)(w % nbands);
-            int ya = pp[i].y0 + bnd * band_rows, yb = ya + band_rows;
-            yb = yb < pp[i].y1 ? yb : pp[i].y1;
-            if (ya < yb)
+            int i, ya, yb;
+            if (band_of(pp, w, nbands, band_rows, &i, &ya, &yb))
                 outline_rows(&R, pp + i, ya, yb, rad, thr);
         }
     }

@@ -21,6 +21,7 @@
  */
 #include "check.h"
 #include "dtx_core.h"
+#include "mat3.h"
 #include "meshfile.h"
 #include "skinning.h"
 

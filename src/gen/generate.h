@@ -27,6 +27,10 @@
  * status is DTX_EINVAL (a bad parameter, named in the message), DTX_EMESH /
  * DTX_ERANGE / DTX_ENONFINITE (an input mesh that fails dtx_mesh_validate),
  * or DTX_ENOMEM (also when an output size would not fit in int32).
+ *
+ * The generators form their own layer (src/gen/, library dtx_gen): built on
+ * the numeric core, which knows nothing of them, and used by `dtx generate`,
+ * the tests and the benchmarks.
  */
 #ifndef DTX_GENERATE_H
 #define DTX_GENERATE_H

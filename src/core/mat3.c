@@ -1,5 +1,5 @@
 /*
- * polar.c: 3x3 signed SVD, polar decomposition and the SO(3) log and exp
+ * mat3.c: 3x3 signed SVD, polar decomposition and the SO(3) log and exp
  * maps, for the skinning fit's local step and clustering features.
  *
  * The SVD is one-sided Jacobi (Hestenes): plane rotations on the right
@@ -10,7 +10,7 @@
  * largest columns by Gram-Schmidt and a cross product, so it is a rotation
  * even when A is rank deficient, and the sign of det A lands on sigma[2].
  */
-#include "skinning.h"
+#include "mat3.h"
 #include "vec3.h"
 
 #include <float.h>

@@ -10,7 +10,7 @@
  * of the right radius), marker remapping, and the parameter errors.
  */
 #include "check.h"
-#include "meshgen.h"
+#include "core/meshgen.h"
 
 #include "dtx_core.h"
 #include "generate.h"
