@@ -22,6 +22,7 @@
 #include "cmd_view.h"
 #include "h5layout.h"
 #include "path_guard.h"
+#include "transfer.h"
 
 #include <cjson/cJSON.h>
 #include <errno.h>
@@ -493,11 +494,13 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             goto done;
         }
         char *method = NULL;
+        const dtx_transfer_method *m;
         dtx_h5_read_attr_str(h, path, "method", &method, NULL);
+        /* A result of an unknown method with frame_stats: say "Newton". */
+        m = dtx_transfer_method_named(method);
         if ((st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err)) == DTX_OK)
             write_frame_stats(f, fs, done, res.nframes,
-                              method && strcmp(method, "multicomponent") == 0 ? "Gauss-Newton"
-                                                                              : "Newton");
+                              m && m->solver_name ? m->solver_name : "Newton");
         free(method);
         free(fs);
     }

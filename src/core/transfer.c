@@ -18,6 +18,16 @@ const dtx_transfer_method *dtx_transfer_method_of(dtx_transfer_kind kind)
     return (unsigned)kind < DTX_TRANSFER_KINDS ? methods[kind] : NULL;
 }
 
+const dtx_transfer_method *dtx_transfer_method_named(const char *name)
+{
+    for (int k = 0; name && k < DTX_TRANSFER_KINDS; k++) {
+        const dtx_transfer_method *m = dtx_transfer_method_of((dtx_transfer_kind)k);
+        if (strcmp(m->name, name) == 0)
+            return m;
+    }
+    return NULL;
+}
+
 void dtx_transfer_params_default(dtx_transfer_params *p, dtx_transfer_kind kind)
 {
     memset(p, 0, sizeof *p);

@@ -6,9 +6,13 @@
  * own file provides, wrapping that method's plan_create / apply / free.  A
  * caller picks the table once (dtx_transfer_method_of) and then calls
  * through it without knowing which member it has: precompute a plan per
- * target, apply it to blocks of frames, free it.  Adding a method touches
- * its own file, this header's kind, union and extern, and the lookup in
- * transfer.c (and, for a job file to name it, io's job parser).
+ * target, apply it to blocks of frames, free it.  The table also says which
+ * inputs the method reads (its correspondence, pairs, a proxy, key points)
+ * and what it reports, so that a caller prepares them by asking the table
+ * instead of naming the method.  Adding a method touches its own file,
+ * this header's kind, union and extern, and the lookup in transfer.c (and,
+ * for a job file to name it, io's job parser); the driver too only when it
+ * reads an input the driver does not prepare yet.
  *
  * Every apply reports one dtx_frame_info per frame; fields a method does
  * not have are -1 (the residual every method has).
@@ -31,6 +35,14 @@ typedef enum {
     DTX_TRANSFER_BIHARMONIC,
     DTX_TRANSFER_KINDS
 } dtx_transfer_kind;
+
+/* The correspondences a method can build on (dtx_core.h). */
+typedef enum {
+    DTX_TRANSFER_CORR_SP04 = 0,      /* dtx_sp04_correspond: a target of one connected
+                                        component; pairs and the deformed source */
+    DTX_TRANSFER_CORR_MULTICOMPONENT /* dtx_mc_correspond: a target of several
+                                        components; pairs only */
+} dtx_transfer_corr;
 
 /* A method's own parameters, tagged by kind (sp04 has none). */
 typedef struct {
@@ -88,6 +100,32 @@ typedef struct dtx_transfer_method {
                                springs, whose frames are independent and
                                expensive, so that few frames still spread */
 
+    /* What a caller prepares for plan_create (which dtx_transfer_inputs it
+     * reads) and what apply reports, so that a caller asks the table
+     * instead of naming methods.  A table leaves out what is 0. */
+
+    /* The correspondence it builds on where it needs one (pairs, a proxy,
+     * key points to map). */
+    dtx_transfer_corr correspondence;
+    /* 1: reads pairs, so every target needs the correspondence. */
+    int uses_pairs;
+    /* 1: reads proxy, the correspondence's deformed source, for a target
+     * whose vertices and faces differ from the source's; a target with the
+     * source's needs neither correspondence nor markers, and only such a
+     * target takes pins (plan_create refuses pins with a proxy). */
+    int uses_proxy;
+    /* 1: reads src_keys, tgt_keys and Xtrain: key points that are a
+     * target's markers, or that are selected on the training frames and
+     * mapped through the correspondence (needed then only). */
+    int uses_keypoints;
+    /* 1: a target may have several connected components. */
+    int multi_component_target;
+    /* The iterative solve, for reports ("Newton", "Gauss-Newton"); NULL
+     * when not iterative. */
+    const char *solver_name;
+    /* 1: frame infos carry inverted (iterative methods only). */
+    int counts_inverted;
+
     /* Precompute for one target; prm->kind must be this method's kind.
      * Errors as the method's own plan_create. */
     dtx_status (*plan_create)(const dtx_transfer_inputs *in, const dtx_transfer_params *prm,
@@ -112,6 +150,9 @@ extern const dtx_transfer_method dtx_method_biharmonic;     /* transfer_bh.c */
 
 /* The table of a kind (NULL for an unknown one). */
 const dtx_transfer_method *dtx_transfer_method_of(dtx_transfer_kind kind);
+/* The table whose name is name, as a job file or an output's "method"
+ * attribute names it (NULL for an unknown name or NULL). */
+const dtx_transfer_method *dtx_transfer_method_named(const char *name);
 
 /* For the methods' adapters: makes *buf hold at least n elements of size
  * bytes (*cap counts them), keeping it when it does.  DTX_ENOMEM. */

@@ -58,6 +58,12 @@ void run_say(run_state *r, const char *fmt, ...)
         fprintf(stderr, "%s\n", line);
 }
 
+int run_uses_correspondence(const run_state *r)
+{
+    return r->method->uses_pairs || r->method->uses_proxy ||
+           (r->method->uses_keypoints && r->job.bh.keypoints == DTX_BH_KEYS_AUTO);
+}
+
 /* mkdir -p of the directory part of path (dir_only != 0) or of path. */
 dtx_status run_make_dirs(const char *path, int dir_only, dtx_error *err)
 {

@@ -71,7 +71,7 @@ dtx_status run_select_keypoints(run_state *r, dtx_error *err)
     const dtx_bh_job_params *bh = &r->job.bh;
     dtx_kp_params kp;
     dtx_status st = DTX_OK;
-    if (r->job.method != DTX_METHOD_BIHARMONIC)
+    if (!r->method->uses_keypoints)
         return DTX_OK;
     seqs = dtx_alloc((size_t)r->ns, sizeof *seqs, 0);
     if (!seqs)
@@ -141,7 +141,7 @@ static dtx_status copy_markers(const dtx_markers *a, dtx_markers *b, dtx_error *
 dtx_status run_target_keys(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
-    if (r->job.method != DTX_METHOD_BIHARMONIC)
+    if (!r->method->uses_keypoints)
         return DTX_OK;
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
@@ -265,8 +265,9 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
     dtx_status st = DTX_OK;
     dtx_corr_params prm;
     int *reused, ncomputed = 0;
+    char use[200] = "";
     /* Markers as key points need no correspondence. */
-    if (r->job.method == DTX_METHOD_BIHARMONIC && r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
+    if (!run_uses_correspondence(r))
         return DTX_OK;
     reused = calloc((size_t)r->nt, sizeof *reused);
     if (run_agree(r->comm, reused ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory"), err) !=
@@ -279,10 +280,10 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt; t++)
         reused[t] = r->tg[t].same_conn ? 2 : 0;
     /* The partial of an interrupted run holds correspondences too, even
-     * when it is discarded. */
-    if (r->rank == 0 && (r->job.method == DTX_METHOD_SP04 ||
-                         r->job.method == DTX_METHOD_BIHARMONIC ||
-                         r->job.method == DTX_METHOD_SPRINGS)) {
+     * when it is discarded.  Only sp04's are looked up: a cached one is
+     * read with its deformed source, which the multicomponent one has
+     * not. */
+    if (r->rank == 0 && r->method->correspondence == DTX_TRANSFER_CORR_SP04) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
@@ -296,7 +297,7 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         ncomputed += !reused[t];
         if (reused[t] || tc->owner != r->rank)
             continue;
-        if (r->job.method == DTX_METHOD_MULTICOMPONENT)
+        if (r->method->correspondence == DTX_TRANSFER_CORR_MULTICOMPONENT)
             st = dtx_mc_correspond(&r->src, &tc->mesh, &tc->mk, &prm, r->job.mc.eps_factor,
                                    &tc->corr, err);
         else
@@ -313,6 +314,10 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
             (st = bcast_corr(r->comm, r->tg[t].owner, &r->tg[t].corr, r->src.nv, err)) != DTX_OK)
             return st;
     r->tm.correspond += run_wtime() - t0;
+    if (r->method->uses_proxy)
+        snprintf(use, sizeof use,
+                 " (the %s solve on the source deformed by it, a proxy of the target)",
+                 r->method->name);
     for (int t = 0; t < r->nt; t++)
         if (r->tg[t].same_conn)
             run_say(r, "dtx: target %s: the source's vertices and faces: no correspondence needed",
@@ -321,10 +326,7 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
             run_say(r, "dtx: target %s: correspondence %s: %lld triangle pairs%s",
                     r->tg[t].tj->name,
                     r->tg[t].reused ? "reused from the output's cache" : "computed",
-                    (long long)r->tg[t].corr.npairs,
-                    r->job.method == DTX_METHOD_SPRINGS ? " (the springs solve on the source "
-                                                          "deformed by it, a proxy of the target)"
-                                                        : "");
+                    (long long)r->tg[t].corr.npairs, use);
     if (ncomputed > 1 && r->nranks > 1)
         run_say(r, "dtx: %d correspondences computed on %d ranks in %.2f s", ncomputed,
                 ncomputed < r->nranks ? ncomputed : r->nranks, r->tm.correspond);

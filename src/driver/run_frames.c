@@ -231,11 +231,11 @@ static dtx_status target_plan(run_state *r, const target_ctx *tc, void **plan, d
     char text[2048];
     dtx_status st;
     *plan = NULL;
-    if (r->job.method == DTX_METHOD_SPRINGS && !tc->same_conn && tj->npins > 0)
+    if (r->method->uses_proxy && !tc->same_conn && tj->npins > 0)
         return dtx_seterr(err, DTX_EJOB,
-                          "%s: target \"%s\": method springs holds pins only on a target with the "
+                          "%s: target \"%s\": method %s holds pins only on a target with the "
                           "source's vertices and faces (this one goes through a proxy)",
-                          r->job.job_path ? r->job.job_path : "job", tj->name);
+                          r->job.job_path ? r->job.job_path : "job", tj->name, r->method->name);
     if (tj->npins > 0) {
         pin_idx = dtx_alloc((size_t)tj->npins, sizeof *pin_idx, 0);
         pin_pos = dtx_alloc((size_t)tj->npins, 3 * sizeof *pin_pos, 0);
@@ -256,7 +256,7 @@ static dtx_status target_plan(run_state *r, const target_ctx *tc, void **plan, d
     in.nkeys = tc->keys.n;
     in.ntrain = r->ntrain;
     in.Xtrain = r->Xtrain;
-    if (r->prm.kind == DTX_TRANSFER_BIHARMONIC &&
+    if (r->method->uses_keypoints &&
         (st = run_bh_weights(r, tc, &in.src_weights, &in.tgt_weights, err)) != DTX_OK) {
         free(pin_idx);
         free(pin_pos);

@@ -246,8 +246,10 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
                  "; %d of its vertices sit at the position of another vertex (vertices %d and "
                  "%d first): split along seams? a weld_tolerance >= 0 welds them",
                  (int)rep.duplicate_positions, (int)rep.dup_vertex[0], (int)rep.dup_vertex[1]);
-    if (is_target && rep.components > 1 && r->job.method == DTX_METHOD_BIHARMONIC &&
-        r->job.bh.keypoints == DTX_BH_KEYS_AUTO)
+    /* A method that takes several pieces may still need sp04's
+     * correspondence, which does not (biharmonic's keypoints "auto"). */
+    if (is_target && rep.components > 1 && r->method->multi_component_target &&
+        r->method->correspondence == DTX_TRANSFER_CORR_SP04 && run_uses_correspondence(r))
         return dtx_seterr(err, DTX_EMESH,
                           "%s:%s: the target mesh has %d connected components (vertex %d is not "
                           "connected to vertex %d) and the sp04 correspondence that maps "
@@ -255,15 +257,13 @@ static dtx_status check_mesh(run_state *r, const char *file, const char *path,
                           "keypoints \"markers\")%s",
                           file, path, (int)rep.components, (int)rep.other_component,
                           (int)m->F[0], seams);
-    if (is_target && rep.components > 1 && r->job.method != DTX_METHOD_MULTICOMPONENT &&
-        r->job.method != DTX_METHOD_BIHARMONIC)
+    if (is_target && rep.components > 1 && !r->method->multi_component_target)
         return dtx_seterr(err, DTX_EMESH,
                           "%s:%s: the target mesh has %d connected components (vertex %d is not "
                           "connected to vertex %d) and method %s needs one (separate pieces "
                           "need method \"multicomponent\", or one target per piece)%s",
-                          file, path, (int)rep.components, (int)rep.other_component,
-                          (int)m->F[0], r->job.method == DTX_METHOD_SPRINGS ? "springs" : "sp04",
-                          seams);
+                          file, path, (int)rep.components, (int)rep.other_component, (int)m->F[0],
+                          r->method->name, seams);
     if (dtx_mesh_report_notes(&rep, notes, sizeof notes) > 0)
         run_say(r, "dtx: warning: %s mesh %s:%s: %s; accepted", is_target ? "target" : "source",
                 file, path, notes);
@@ -304,7 +304,7 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
         }
         if (st == DTX_OK)
             st = check_mesh(r, tc->tj->file, tc->tj->mesh, &tc->mesh, 1, err);
-        if (st == DTX_OK && r->job.method == DTX_METHOD_SPRINGS) {
+        if (st == DTX_OK && r->method->uses_proxy) {
             tc->same_conn = same_connectivity(&r->src, &tc->mesh);
             if (tc->same_conn) {
                 /* The paper's setting: vertex i of the target is vertex i
@@ -320,12 +320,12 @@ static dtx_status read_targets(run_state *r, const char *params, dtx_error *err)
             if (!tc->tj->markers.csv && !tc->tj->markers.file)
                 st = dtx_seterr(err, DTX_EJOB,
                                 "%s: target \"%s\" (%s:%s): has %d vertices and %d faces, not "
-                                "the source's %d and %d with the same faces, so method springs "
+                                "the source's %d and %d with the same faces, so method %s "
                                 "needs its markers (for the sp04 correspondence that deforms "
                                 "the source into a proxy of the target)",
                                 r->job.job_path ? r->job.job_path : "job", tc->tj->name,
                                 tc->tj->file, tc->tj->mesh, (int)tc->mesh.nv, (int)tc->mesh.nf,
-                                (int)r->src.nv, (int)r->src.nf);
+                                (int)r->src.nv, (int)r->src.nf, r->method->name);
         }
         if (st == DTX_OK)
             st = read_markers(tc->tj, &tc->mk, err);
@@ -373,15 +373,10 @@ dtx_status run_read_inputs(run_state *r, dtx_error *err)
     dtx_status st = DTX_OK;
     double t0 = run_wtime();
     char *params;
-    /* The biharmonic method's key points and the springs method's proxies
-     * come from sp04's correspondence: its cache key is sp04's, so changing
-     * their own parameters does not recompute it. */
-    {
-        dtx_job as_sp04 = r->job;
-        if (as_sp04.method == DTX_METHOD_BIHARMONIC || as_sp04.method == DTX_METHOD_SPRINGS)
-            as_sp04.method = DTX_METHOD_SP04;
-        params = dtx_job_params_json(&as_sp04);
-    }
+    /* The cache key of a correspondence covers its own parameters only
+     * (sp04's for the methods that build on sp04's correspondence), so
+     * changing a method's own parameters does not recompute it. */
+    params = dtx_job_corr_params_json(&r->job, r->method->correspondence);
     r->nt = r->job.ntargets;
     r->tg = calloc((size_t)r->nt, sizeof *r->tg);
     if (!params || !r->tg)

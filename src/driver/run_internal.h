@@ -47,13 +47,14 @@ typedef struct {
     double sum, sumsq, min, max;
 } run_stats;
 
-/* Methods springs (Newton) and multicomponent (Gauss-Newton): the solves of
- * a result's frames done by this run (reduced onto rank 0 at the end). */
+/* Iterative methods (springs' Newton, multicomponent's Gauss-Newton): the
+ * solves of a result's frames done by this run (reduced onto rank 0 at the
+ * end). */
 typedef struct {
     int64_t frames, iterations; /* frames solved, (fine-level) iterations summed */
     int64_t unconverged;        /* frames that stopped without meeting the test */
     int64_t first_unconverged;  /* the lowest of them, or INT64_MAX */
-    int64_t inverted_frames;    /* frames with inverted triangles (springs only) */
+    int64_t inverted_frames;    /* frames with inverted triangles (where counted) */
     int64_t max_inverted;       /* most inverted triangles in a frame */
     int64_t max_inverted_frame; /* that frame (the lowest on ties), or INT64_MAX */
     int64_t max_iterations;
@@ -68,12 +69,12 @@ typedef struct {
     dtx_corr corr;
     char key[17];
     int reused;    /* correspondence found in a cache */
-    int same_conn; /* method springs: the source's vertices and faces (no
-                      correspondence, no markers needed) */
+    int same_conn; /* methods with a proxy (springs): the source's vertices
+                      and faces (no correspondence, no markers needed) */
     int owner;     /* rank that computes it */
     char mesh_path[DTX_H5_PATH_MAX], corr_path[DTX_H5_PATH_MAX];
-    /* method biharmonic: the key points (source -> target vertex) as a
-     * marker set, stored in the output at kp_path */
+    /* methods with key points (biharmonic): the key points (source ->
+     * target vertex) as a marker set, stored in the output at kp_path */
     dtx_markers keys;
     char kp_path[DTX_H5_PATH_MAX];
     dtx_weld_ctx weld; /* the asset's vertices (mesh is welded along seams) */
@@ -119,8 +120,8 @@ typedef struct {
     result_ctx *rs;   /* nt x ns, result of target t and sequence s at t * ns + s */
     phase_times tm;
     run_stats stats;
-    /* method biharmonic: the training frames (every rank) and, with
-     * keypoints "auto", the key points selected on them */
+    /* methods with key points (biharmonic): the training frames (every
+     * rank) and, with keypoints "auto", the key points selected on them */
     int32_t ntrain;
     double *Xtrain;
     dtx_kp_result kp;
@@ -147,6 +148,12 @@ dtx_status run_injected_fault(const run_state *r, const char *phase, dtx_error *
 void run_say(run_state *r, const char *fmt, ...) __attribute__((format(printf, 2, 3)));
 /* mkdir -p of the directory part of path (dir_only != 0) or of path. */
 dtx_status run_make_dirs(const char *path, int dir_only, dtx_error *err);
+/* 1 when the job's method builds on a correspondence (r->method's
+ * correspondence): for its pairs, its proxies, or to map key points
+ * selected on the source (keypoints "auto"); 0 when it needs none (key
+ * points from markers).  A target with the source's vertices and faces
+ * needs none either way (target_ctx.same_conn). */
+int run_uses_correspondence(const run_state *r);
 
 /* run_inputs.c: phases 1 and 2. */
 

@@ -343,7 +343,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     }
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
-    if (r->job.method == DTX_METHOD_BIHARMONIC) {
+    if (r->method->uses_keypoints) {
         /* Marker sets have variable-length labels, which parallel HDF5
          * cannot write: rank 0 creates the file with the key points
          * serially, then every rank opens it. */

@@ -5,6 +5,7 @@
  */
 #include "run_internal.h"
 
+#include <ctype.h>
 #include <errno.h>
 #include <math.h>
 #include <stdint.h>
@@ -102,8 +103,8 @@ static void solves_reduce(MPI_Comm comm, const solve_stats *mine, solve_stats *a
     all->max_inverted = max_all[1];
 }
 
-/* Rank 0, methods springs and multicomponent: how the (Gauss-)Newton solves
- * of result (t, s) went. */
+/* Rank 0, iterative methods (springs' Newton, multicomponent's
+ * Gauss-Newton): how the solves of result (t, s) went. */
 static void say_solves(run_state *r, int t, int s)
 {
     const solve_stats *sp = &RESULT(r, t, s)->sv;
@@ -120,11 +121,33 @@ static void say_solves(run_state *r, int t, int s)
                  "; %lld frames have inverted triangles (most: %lld in frame %lld)",
                  (long long)sp->inverted_frames, (long long)sp->max_inverted,
                  (long long)sp->max_inverted_frame);
-    run_say(
-        r, "dtx: result %s/%s: %s %.1f iterations per frame (at most %lld)%s%s", r->tg[t].tj->name,
-        r->sq[s].name, r->job.method == DTX_METHOD_MULTICOMPONENT ? "Gauss-Newton" : "Newton",
-        (double)sp->iterations / (double)sp->frames, (long long)sp->max_iterations, more,
-        sp->unconverged || sp->inverted_frames ? " (per frame: frame_stats in the output)" : "");
+    run_say(r, "dtx: result %s/%s: %s %.1f iterations per frame (at most %lld)%s%s",
+            r->tg[t].tj->name, r->sq[s].name, r->method->solver_name,
+            (double)sp->iterations / (double)sp->frames, (long long)sp->max_iterations, more,
+            sp->unconverged || sp->inverted_frames ? " (per frame: frame_stats in the output)"
+                                                   : "");
+}
+
+/* The solves of an iterative method's result as the summary's object
+ * named after the method, its keys after the solver ("Gauss-Newton":
+ * "gauss_newton_iterations_mean"), with the inverted triangles where the
+ * method counts them. */
+static void json_solves(FILE *f, const dtx_transfer_method *m, const solve_stats *sv)
+{
+    char key[64];
+    size_t i;
+    for (i = 0; m->solver_name[i] && i + 1 < sizeof key; i++)
+        key[i] = m->solver_name[i] == '-' ? '_' : (char)tolower((unsigned char)m->solver_name[i]);
+    key[i] = '\0';
+    fprintf(f,
+            ", \"%s\": {\"%s_iterations_mean\": %.4g, \"%s_iterations_max\": %lld, "
+            "\"unconverged_frames\": %lld",
+            m->name, key, (double)sv->iterations / (double)sv->frames, key,
+            (long long)sv->max_iterations, (long long)sv->unconverged);
+    if (m->counts_inverted)
+        fprintf(f, ", \"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": %lld",
+                (long long)sv->inverted_frames, (long long)sv->max_inverted);
+    fputc('}', f);
 }
 
 /* Adds this rank's statistics of every result to r->stats. */
@@ -231,9 +254,7 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
         fprintf(f, "%s", t ? ", " : "");
         json_str(f, r->tg[t].tj->name);
         fprintf(f, ": \"%s\"",
-                r->mode == OUT_DONE || r->tg[t].same_conn ||
-                        (r->job.method == DTX_METHOD_BIHARMONIC &&
-                         r->job.bh.keypoints == DTX_BH_KEYS_MARKERS)
+                r->mode == OUT_DONE || r->tg[t].same_conn || !run_uses_correspondence(r)
                     ? "not needed"
                     : (r->tg[t].reused ? "reused" : "computed"));
     }
@@ -247,21 +268,8 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
             json_str(f, r->sq[s].path);
             fprintf(f, ", \"frames\": %lld, \"residual\": ", (long long)rc->st.frames);
             json_stats(f, &rc->st);
-            if (r->job.method == DTX_METHOD_MULTICOMPONENT && rc->sv.frames > 0)
-                fprintf(f,
-                        ", \"multicomponent\": {\"gauss_newton_iterations_mean\": %.4g, "
-                        "\"gauss_newton_iterations_max\": %lld, \"unconverged_frames\": %lld}",
-                        (double)rc->sv.iterations / (double)rc->sv.frames,
-                        (long long)rc->sv.max_iterations, (long long)rc->sv.unconverged);
-            if (r->job.method == DTX_METHOD_SPRINGS && rc->sv.frames > 0)
-                fprintf(f,
-                        ", \"springs\": {\"newton_iterations_mean\": %.4g, "
-                        "\"newton_iterations_max\": %lld, \"unconverged_frames\": %lld, "
-                        "\"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": "
-                        "%lld}",
-                        (double)rc->sv.iterations / (double)rc->sv.frames,
-                        (long long)rc->sv.max_iterations, (long long)rc->sv.unconverged,
-                        (long long)rc->sv.inverted_frames, (long long)rc->sv.max_inverted);
+            if (r->method->iterative && rc->sv.frames > 0)
+                json_solves(f, r->method, &rc->sv);
             fputc('}', f);
         }
     fprintf(f, "\n  ]\n}\n");

@@ -1166,6 +1166,17 @@ char *dtx_job_params_json(const dtx_job *job)
     return b.buf;
 }
 
+char *dtx_job_corr_params_json(const dtx_job *job, dtx_transfer_corr corr)
+{
+    dtx_job as;
+    if (!job)
+        return NULL;
+    as = *job; /* shallow: only read */
+    if (corr == DTX_TRANSFER_CORR_SP04)
+        as.method = DTX_METHOD_SP04;
+    return dtx_job_params_json(&as);
+}
+
 void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p)
 {
     static const dtx_transfer_kind kinds[] = {

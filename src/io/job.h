@@ -175,6 +175,16 @@ char *dtx_job_params_json(const dtx_job *job);
  * printed with %.17g (needs the default "C" LC_NUMERIC locale).  NULL when
  * out of memory or job is NULL.  Thread-safe.) */
 
+/* Canonical parameter text of the correspondence the job's method builds
+ * on (corr: its table's correspondence, transfer.h), for the correspondence
+ * cache key: sp04's text, as dtx_job_params_json gives it for the job with
+ * method sp04, for DTX_TRANSFER_CORR_SP04, so that the methods building on
+ * sp04's correspondence (springs' proxies, biharmonic's key points) share
+ * it and changing their own parameters does not recompute it; the job's
+ * own text otherwise.  Caller frees; NULL when out of memory or job is
+ * NULL. */
+char *dtx_job_corr_params_json(const dtx_job *job, dtx_transfer_corr corr);
+
 /* The job's method as core's tagged parameters (transfer.h): its kind, and
  * the job's values over that method's defaults. */
 void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p);
