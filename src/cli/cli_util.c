@@ -44,6 +44,14 @@ void dtx_cli_print_warning(void *ctx, const char *msg)
     fprintf(stderr, "dtx: warning: %s\n", msg);
 }
 
+void dtx_cli_mpi_init(int *argc, char ***argv)
+{
+    int provided;
+    if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMIX_RANK") && !getenv("PMI_RANK"))
+        setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
+    MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
+}
+
 int dtx_cli_mpi_finish(dtx_status st)
 {
     int stuck = H5Fget_obj_count(H5F_OBJ_ALL, H5F_OBJ_ALL) > 0;

@@ -556,8 +556,8 @@ int dtx_cmd_keypoints(int argc, char **argv)
     dtx_status st;
     const char *why;
     char buf[512];
-    int rank = 0, provided;
-    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    int rank = 0;
+    dtx_cli_mpi_init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     if ((why = parse_args(argc, argv, &a, buf, sizeof buf)) != NULL) {
         MPI_Finalize();

@@ -18,7 +18,7 @@ int dtx_cmd_run(int argc, char **argv)
     dtx_error err;
     dtx_status st;
     char *pos[2];
-    int rank = 0, provided;
+    int rank = 0;
     memset(&o, 0, sizeof o);
     if (dtx_cli_positionals(argc, argv, 2, pos, 2) != 1)
         return dtx_cli_usage_rank0(dtx_cli_find_name("run"), "run needs one job file");
@@ -30,7 +30,7 @@ int dtx_cmd_run(int argc, char **argv)
         else if (strcmp(argv[i], "--break-lock") == 0)
             o.break_lock = 1;
     o.summary_path = dtx_cli_opt_value(argc, argv, "--summary");
-    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    dtx_cli_mpi_init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     st = dtx_run_job(pos[0], MPI_COMM_WORLD, &o, &err);
     if (st != DTX_OK && rank == 0)
