@@ -74,11 +74,12 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
 {
     const dtx_job *j = &r->job;
     dtx_path_guard g;
-    char lockp[4300], breakp[4400], summary[4200], sumtmp[4300];
+    char lockp[4300], breakp[4400], summary[4200], sumtmp[4300], fresh[4300];
     dtx_status st;
-    struct { const char *path, *use; } w[7];
+    struct { const char *path, *use; } w[8];
     int nw = 0;
     snprintf(lockp, sizeof lockp, "%s.lock", j->output_file);
+    snprintf(fresh, sizeof fresh, "%s.new", r->partial);
     snprintf(breakp, sizeof breakp, "%s.break", lockp);
     snprintf(summary, sizeof summary, "%s",
              r->opts->summary_path ? r->opts->summary_path : j->output_file);
@@ -87,6 +88,7 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
     snprintf(sumtmp, sizeof sumtmp, "%.4200s.tmp", summary);
     w[nw].path = j->output_file, w[nw++].use = "the output";
     w[nw].path = r->partial, w[nw++].use = "the output's temporary file";
+    w[nw].path = fresh, w[nw++].use = "the output's temporary file";
     w[nw].path = lockp, w[nw++].use = "the output's lock file";
     w[nw].path = breakp, w[nw++].use = "the output's lock file";
     w[nw].path = summary, w[nw++].use = "the run summary";
@@ -110,12 +112,14 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
     int from_summary = 0; /* the failing path came from --summary */
     for (int i = 0; i < nw && st == DTX_OK; i++)
         if ((st = dtx_path_guard_check(&g, w[i].path, w[i].use, err)) != DTX_OK)
-            from_summary = i >= 4 && r->opts->summary_path;
+            from_summary = i >= 5 && r->opts->summary_path;
     dtx_path_guard_free(&g);
     if (st == DTX_OK)
         st = dtx_output_path_check(j->output_file, "the output", err);
     if (st == DTX_OK)
         st = dtx_output_path_check(r->partial, "the output's temporary file", err);
+    if (st == DTX_OK)
+        st = dtx_output_path_check(fresh, "the output's temporary file", err);
     if (st == DTX_OK && (st = dtx_output_path_check(summary, "the run summary", err)) != DTX_OK)
         from_summary = r->opts->summary_path != NULL;
     if (st != DTX_OK && from_summary)
@@ -308,17 +312,22 @@ void run_choose_mode(run_state *r)
 /* 5. The output                                                       */
 /* ------------------------------------------------------------------ */
 
-/* Rank 0: the new output file, serial, holding each target's key points
- * (method biharmonic) as the marker set /markers/TARGET-keypoints. */
-static dtx_status write_keypoint_sets(run_state *r, dtx_error *err)
+/* Rank 0: the new output file, created serially under the temporary name
+ * OUTPUT.partial.new with its mark (and, for a method with key points,
+ * each target's key points as the marker set /markers/TARGET-keypoints:
+ * variable-length labels, which parallel HDF5 cannot write), closed, then
+ * renamed to OUTPUT.partial.  So an OUTPUT.partial always carries the mark,
+ * however early a run is killed; a kill before the rename leaves only
+ * OUTPUT.partial.new, which the next run holding the lock removes. */
+static dtx_status create_marked_partial(run_state *r, const char *fresh, dtx_error *err)
 {
     hid_t f = H5I_INVALID_HID;
     char srcdesc[4200];
-    dtx_status st = dtx_h5_create(r->partial, MPI_COMM_NULL, &f, err);
+    dtx_status st = dtx_h5_create(fresh, MPI_COMM_NULL, &f, err);
     if (st == DTX_OK)
         st = mark_partial(r, f, err);
     snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
-    for (int t = 0; t < r->nt && st == DTX_OK; t++)
+    for (int t = 0; t < r->nt && st == DTX_OK && r->method->uses_keypoints; t++)
         st = dtx_h5_write_markers(f, r->tg[t].kp_path, &r->tg[t].keys, srcdesc,
                                   r->tg[t].mesh_path, err);
     if (f >= 0) {
@@ -328,6 +337,11 @@ static dtx_status write_keypoint_sets(run_state *r, dtx_error *err)
             st = e2.code;
         }
     }
+    if (st == DTX_OK && rename(fresh, r->partial) != 0)
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", fresh, r->partial,
+                        strerror(errno));
+    if (st != DTX_OK)
+        remove(fresh);
     return st;
 }
 
@@ -336,26 +350,21 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     dtx_status st = DTX_OK;
     char *params = dtx_job_params_json(&r->job);
     char srcdesc[4200];
+    char fresh[4300];
+    snprintf(fresh, sizeof fresh, "%s.new", r->partial);
     if (r->rank == 0) {
         st = run_make_dirs(r->job.output_file, 1, err);
         if (st == DTX_OK && remove(r->partial) != 0 && errno != ENOENT)
             st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", r->partial, strerror(errno));
+        if (st == DTX_OK && remove(fresh) != 0 && errno != ENOENT)
+            st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", fresh, strerror(errno));
+        if (st == DTX_OK)
+            st = create_marked_partial(r, fresh, err);
     }
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
-    if (r->method->uses_keypoints) {
-        /* Marker sets have variable-length labels, which parallel HDF5
-         * cannot write: rank 0 creates the file with the key points
-         * serially, then every rank opens it. */
-        st = r->rank == 0 ? write_keypoint_sets(r, err) : DTX_OK;
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
-            goto done;
-        st = dtx_h5_open(r->partial, r->comm, 1, &r->out, err);
-    } else {
-        st = dtx_h5_create(r->partial, r->comm, &r->out, err);
-        if (run_agree(r->comm, st, err) == DTX_OK)
-            st = mark_partial(r, r->out, err);
-    }
+    /* Every rank opens what rank 0 created. */
+    st = dtx_h5_open(r->partial, r->comm, 1, &r->out, err);
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
     st = params ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");

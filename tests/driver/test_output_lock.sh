@@ -7,7 +7,8 @@
 # incomplete result: whenever OUTPUT exists, every result is complete,
 # every frame_done is 1 and `dtx validate` passes.  A lock left by a
 # killed run is replaced when its pid is gone on this host; a lock from
-# another host is refused until --break-lock.
+# another host is refused until --break-lock.  A leftover OUTPUT.partial.new
+# (a kill before the new partial was renamed into place) is removed.
 # No check depends on timing: the second run is started once the first
 # holds the lock (polled) and while the first is stopped (SIGSTOP), and
 # kills happen at states seen on disk.
@@ -96,7 +97,7 @@ refused_naming() { # refused_naming ERRFILE PID
     grep -q "out.h5 is being written by another dtx run: host $(hostname), pid $2, started " "$1" &&
         grep -q -- "--break-lock" "$1"
 }
-reset() { rm -f out.h5 out.h5.partial out.h5.lock out.h5.summary.json; }
+reset() { rm -f out.h5 out.h5.partial out.h5.partial.new out.h5.lock out.h5.summary.json; }
 
 # ---- 1. A runs; B (fresh), then C (--resume) start while A holds the lock,
 # in that order and the reverse order of flags.
@@ -195,5 +196,15 @@ check "--break-lock: exits 0 ($rc) and says whose lock it removed" \
     grep -q "removed the lock .*host node-17.example, pid 4242" c.err
 check "--break-lock: out.h5 complete and valid" complete out.h5
 check "--break-lock: no lock left" test ! -e out.h5.lock
+
+# ---- 6. A run killed between creating its partial and renaming it into
+# place leaves OUTPUT.partial.new (never an unmarked OUTPUT.partial); the
+# next run holding the lock removes it and finishes.
+reset
+echo "not HDF5: what a kill -9 inside H5Fcreate leaves" > out.h5.partial.new
+set +e; "$DTX" run --quiet job.json 2> d.err; rc=$?; set -e
+check "leftover OUTPUT.partial.new: the run exits 0 ($rc)" test "$rc" -eq 0
+check "leftover OUTPUT.partial.new: removed" test ! -e out.h5.partial.new
+check "leftover OUTPUT.partial.new: out.h5 complete and valid" complete out.h5
 
 finish
