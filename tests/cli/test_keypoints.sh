@@ -5,7 +5,7 @@
 #    with the error after each step; /keypoints/NAME is written and
 #    validates; the CSV has an empty target column and says to fill it in,
 #    and `dtx import markers` refuses it naming the line;
-#  - under mpirun -np 2 the same key points;
+#  - under mpirun -np 2 the same key points (not in the sanitizer pass);
 #  - --target: the key points mapped onto the lion (/markers/NAME-lion and a
 #    CSV that imports), -o into another file;
 #  - bad arguments: usage errors exit 2, errors exit 1 naming the problem,
@@ -59,13 +59,17 @@ else
 fi
 
 # ---------------------------------------------------- two ranks
-cp in.h5 b.h5
-OMP_NUM_THREADS=1 mpirun --oversubscribe --bind-to none -np 2 "$DTX" keypoints b.h5 "${ARGS[@]}" \
-    --markers /markers/cat-lion "${SMALL[@]}" > b.out 2> b.err
-check "2 ranks: the same key points" \
-    cmp <(vertices a.h5 /keypoints/cat-keys) <(vertices b.h5 /keypoints/cat-keys)
-check "2 ranks: the table printed once" test "$(grep -c 'nearest marker' b.out)" -eq 1
-check "2 ranks: candidates split" has b.err '10 candidates, 2 rank'
+# Numbers, not memory: the plain pass only (driver.biharmonic runs the
+# selection split over 2 ranks under the sanitizers).
+if [ "${DTX_SANITIZED:-0}" != 1 ]; then
+    cp in.h5 b.h5
+    OMP_NUM_THREADS=1 mpirun --oversubscribe --bind-to none -np 2 "$DTX" keypoints b.h5 "${ARGS[@]}" \
+        --markers /markers/cat-lion "${SMALL[@]}" > b.out 2> b.err
+    check "2 ranks: the same key points" \
+        cmp <(vertices a.h5 /keypoints/cat-keys) <(vertices b.h5 /keypoints/cat-keys)
+    check "2 ranks: the table printed once" test "$(grep -c 'nearest marker' b.out)" -eq 1
+    check "2 ranks: candidates split" has b.err '10 candidates, 2 rank'
+fi
 
 # ------------------------------------------------------- --target
 OMP_NUM_THREADS=2 "$DTX" keypoints in.h5 "${ARGS[@]}" --markers /markers/cat-lion \

@@ -2,7 +2,7 @@
  * test_keypoints.c: greedy key-point selection (keypoints.h).
  *
  * On a capsule bent, twisted and bulged over six frames (always runs) and
- * on three cat poses (the bundled data):
+ * on three cat poses (the bundled data; not in the sanitizer build):
  *  - the recorded error never increases, as points are added or replaced,
  *    and ends below the error of the first point alone;
  *  - key points are distinct candidates;
@@ -304,6 +304,12 @@ static void test_cat(void)
 int main(void)
 {
     test_capsule();
+#ifdef __SANITIZE_ADDRESS__
+    /* The sanitizer pass checks memory on the capsule, which runs every
+     * path above; the plain pass adds the cat's full size. */
+    printf("cat: skipped in the sanitizer build (the plain build runs it)\n");
+#else
     test_cat();
+#endif
     return check_report();
 }
