@@ -51,6 +51,7 @@
 #include <cholmod.h>
 #include <math.h>
 #include <stdio.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -1963,6 +1964,20 @@ static void springs_method_describe(const void *plan, char *buf, size_t size)
                  100 * info.proxy_rms);
 }
 
+/* The job file's "springs" object (transfer.h); damping is not one. */
+static const char *const springs_starts[] = {"linear", "rest", NULL};
+static const dtx_setting springs_settings[] = {
+    {"bending", DTX_SETTING_BOOL, offsetof(dtx_springs_params, bending), NULL},
+    {"coarse_max_iter", DTX_SETTING_INT, offsetof(dtx_springs_params, coarse_max_iter), NULL},
+    {"coarse_min", DTX_SETTING_INT, offsetof(dtx_springs_params, coarse_min), NULL},
+    {"coarse_tol", DTX_SETTING_DOUBLE, offsetof(dtx_springs_params, coarse_tol), NULL},
+    {"internal", DTX_SETTING_BOOL, offsetof(dtx_springs_params, internal), NULL},
+    {"levels", DTX_SETTING_INT, offsetof(dtx_springs_params, levels), NULL},
+    {"max_iter", DTX_SETTING_INT, offsetof(dtx_springs_params, max_iter), NULL},
+    {"start", DTX_SETTING_CHOICE, offsetof(dtx_springs_params, start), springs_starts},
+    {"tol", DTX_SETTING_DOUBLE, offsetof(dtx_springs_params, tol), NULL},
+};
+
 const dtx_transfer_method dtx_method_springs = {
     .name = "springs",
     .kind = DTX_TRANSFER_SPRINGS,
@@ -1972,6 +1987,8 @@ const dtx_transfer_method dtx_method_springs = {
     .uses_proxy = 1,
     .solver_name = "Newton",
     .counts_inverted = 1,
+    .settings = springs_settings,
+    .nsettings = 9,
     .plan_create = springs_method_create,
     .apply = springs_method_apply,
     .plan_free = springs_method_free,

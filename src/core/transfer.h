@@ -89,6 +89,26 @@ typedef struct {
     int32_t inverted;   /* inverted target triangles (springs) */
 } dtx_frame_info;
 
+/* One setting of a method, as a job file's method object names it: the
+ * job parser reads it and the run's parameter text (provenance, resume
+ * key) writes it from this description alone, so a new setting is its
+ * struct field, its default, one row of its method's table, the job
+ * schema (types and ranges) and the docs.  offset is within the method's
+ * own parameter struct (the member of dtx_transfer_params.u). */
+typedef enum {
+    DTX_SETTING_DOUBLE, /* double */
+    DTX_SETTING_INT,    /* int (int32_t is int on every platform dtx builds for) */
+    DTX_SETTING_BOOL,   /* int, 0 or 1; JSON true / false */
+    DTX_SETTING_CHOICE  /* an enum whose values are 0, 1, ...: choices[value] */
+} dtx_setting_type;
+
+typedef struct {
+    const char *name;
+    dtx_setting_type type;
+    size_t offset;
+    const char *const *choices; /* DTX_SETTING_CHOICE: NULL-terminated names */
+} dtx_setting;
+
 /* One member of the family.  plan is the method's own (opaque) plan. */
 typedef struct dtx_transfer_method {
     const char *name;       /* as in a job file: "sp04", "multicomponent", ... */
@@ -125,6 +145,10 @@ typedef struct dtx_transfer_method {
     const char *solver_name;
     /* 1: frame infos carry inverted (iterative methods only). */
     int counts_inverted;
+    /* Its settings (nsettings rows; NULL, 0 for a method without any),
+     * in the job file's method object named after the method. */
+    const dtx_setting *settings;
+    int nsettings;
 
     /* Precompute for one target; prm->kind must be this method's kind.
      * Errors as the method's own plan_create. */

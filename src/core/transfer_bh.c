@@ -10,6 +10,7 @@
 #include <math.h>
 #include <omp.h>
 #include <stdio.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -360,6 +361,14 @@ static void bh_method_describe(const void *plan, char *buf, size_t size)
                  (int)info.keys, (int)info.clusters, info.weights_seconds, 100 * info.align_rms);
 }
 
+/* The transfer's settings in the job file's "biharmonic" object
+ * (transfer.h); the key-point selection's are the run's (io/job.c). */
+static const dtx_setting bh_settings[] = {
+    {"gamma_logr", DTX_SETTING_DOUBLE, offsetof(dtx_bh_params, skin.gamma_logr), NULL},
+    {"gamma_s", DTX_SETTING_DOUBLE, offsetof(dtx_bh_params, skin.gamma_s), NULL},
+    {"lambda", DTX_SETTING_DOUBLE, offsetof(dtx_bh_params, skin.lambda), NULL},
+};
+
 const dtx_transfer_method dtx_method_biharmonic = {
     .name = "biharmonic",
     .kind = DTX_TRANSFER_BIHARMONIC,
@@ -368,6 +377,8 @@ const dtx_transfer_method dtx_method_biharmonic = {
     .correspondence = DTX_TRANSFER_CORR_SP04,
     .uses_keypoints = 1,
     .multi_component_target = 1,
+    .settings = bh_settings,
+    .nsettings = 3,
     .plan_create = bh_method_create,
     .apply = bh_method_apply,
     .plan_free = bh_method_free,

@@ -84,6 +84,7 @@
 #include <cholmod.h>
 #include <math.h>
 #include <stdio.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP
@@ -1386,6 +1387,19 @@ static void mc_method_describe(const void *plan, char *buf, size_t size)
              (int)info.orphan_triangles, (int)info.orphan_components);
 }
 
+/* The job file's "multicomponent" object (transfer.h). */
+static const char *const mc_lengths[] = {"relative", "diagonal", NULL};
+static const dtx_setting mc_settings[] = {
+    {"eps_factor", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, eps_factor), NULL},
+    {"max_iter", DTX_SETTING_INT, offsetof(dtx_mc_params, max_iter), NULL},
+    {"proximity_lengths", DTX_SETTING_CHOICE, offsetof(dtx_mc_params, lengths), mc_lengths},
+    {"tol", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, tol), NULL},
+    {"w_laplacian", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, w_laplacian), NULL},
+    {"w_match", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, w_match), NULL},
+    {"w_orphan", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, w_orphan), NULL},
+    {"w_proximity", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, w_proximity), NULL},
+};
+
 const dtx_transfer_method dtx_method_multicomponent = {
     .name = "multicomponent",
     .kind = DTX_TRANSFER_MULTICOMPONENT,
@@ -1395,6 +1409,8 @@ const dtx_transfer_method dtx_method_multicomponent = {
     .uses_pairs = 1,
     .multi_component_target = 1,
     .solver_name = "Gauss-Newton",
+    .settings = mc_settings,
+    .nsettings = 8,
     .plan_create = mc_method_create,
     .apply = mc_method_apply,
     .plan_free = mc_method_free,

@@ -19,6 +19,7 @@
 #include "dtx_core.h"
 #include "keypoints.h"
 #include "springs.h"
+#include "transfer.h"
 
 #include "h5layout.h"
 #include "file_util.h"
@@ -473,11 +474,75 @@ static dtx_status fill_target(fillctx *f, const cJSON *t, int index, dtx_job_tar
     return DTX_OK;
 }
 
+/* ------------------------------------------------------------------ */
+/* Method settings: read and written from the methods' tables          */
+/* ------------------------------------------------------------------ */
+
+_Static_assert(sizeof(int32_t) == sizeof(int), "DTX_SETTING_INT fields are int or int32_t");
+
+/* The key-point selection's settings in the "biharmonic" object: the
+ * run's, not the transfer's (whose rows are core's, transfer_bh.c). */
+static const char *const bh_keys_names[] = {"markers", "auto", NULL};
+static const dtx_setting bh_run_settings[] = {
+    {"candidates", DTX_SETTING_INT, offsetof(dtx_bh_job_params, candidates), NULL},
+    {"eps", DTX_SETTING_DOUBLE, offsetof(dtx_bh_job_params, eps), NULL},
+    {"keypoints", DTX_SETTING_CHOICE, offsetof(dtx_bh_job_params, keypoints), bh_keys_names},
+    {"max_keypoints", DTX_SETTING_INT, offsetof(dtx_bh_job_params, max_keypoints), NULL},
+    {"training_frames", DTX_SETTING_INT, offsetof(dtx_bh_job_params, training_frames), NULL},
+};
+
+/* The settings of a method, as rows with the struct of job they fill:
+ * the method's own table (transfer.h) over its parameter struct in the
+ * job, and for biharmonic the run's key-point rows too.  Returns the
+ * number of rows (at most cap). */
+typedef struct {
+    const dtx_setting *row;
+    void *base;
+} setting_ref;
+
+static int method_settings(dtx_job *job, dtx_method method, setting_ref *refs, int cap)
+{
+    const dtx_transfer_method *m = dtx_transfer_method_named(method_names[method]);
+    void *base = method == DTX_METHOD_MULTICOMPONENT ? (void *)&job->mc
+                 : method == DTX_METHOD_SPRINGS      ? (void *)&job->springs
+                 : method == DTX_METHOD_BIHARMONIC   ? (void *)&job->bh.transfer
+                                                     : NULL;
+    int n = 0;
+    for (int i = 0; m && base && i < m->nsettings && n < cap; i++)
+        refs[n++] = (setting_ref){&m->settings[i], base};
+    if (method == DTX_METHOD_BIHARMONIC)
+        for (size_t i = 0; i < sizeof bh_run_settings / sizeof *bh_run_settings && n < cap; i++)
+            refs[n++] = (setting_ref){&bh_run_settings[i], &job->bh};
+    return n;
+}
+
+/* Fills the settings obj names (the schema has checked their types and
+ * ranges); the others keep their defaults. */
+static void read_settings(const cJSON *obj, const setting_ref *refs, int n)
+{
+    for (int i = 0; obj && i < n; i++) {
+        const dtx_setting *s = refs[i].row;
+        const cJSON *x = get(obj, s->name);
+        char *p = (char *)refs[i].base + s->offset;
+        if (!x)
+            continue;
+        if (s->type == DTX_SETTING_DOUBLE && cJSON_IsNumber(x))
+            *(double *)p = x->valuedouble;
+        else if (s->type == DTX_SETTING_INT && cJSON_IsNumber(x))
+            *(int *)p = (int)x->valuedouble;
+        else if (s->type == DTX_SETTING_BOOL && cJSON_IsBool(x))
+            *(int *)p = cJSON_IsTrue(x);
+        else if (s->type == DTX_SETTING_CHOICE && cJSON_IsString(x))
+            for (int c = 0; s->choices[c]; c++)
+                if (strcmp(s->choices[c], x->valuestring) == 0)
+                    *(int *)p = c;
+    }
+}
+
 static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 {
     const cJSON *src = get(doc, "source"), *tgts = get(doc, "targets"), *out = get(doc, "output");
     const cJSON *sp = get(doc, "sp04"), *mc = get(doc, "multicomponent"), *x;
-    const cJSON *bh = get(doc, "biharmonic"), *spr = get(doc, "springs");
     dtx_status st;
     int i, m;
 
@@ -562,30 +627,6 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 
     /* ---- multicomponent parameters (defaults from the core) ---- */
     dtx_mc_params_default(&job->mc);
-    if (mc) {
-        /* The paper's absolute lengths come with the paper's weight
-         * unless w_proximity is given. */
-        if (cJSON_IsString(x = get(mc, "proximity_lengths")) &&
-            strcmp(x->valuestring, "diagonal") == 0) {
-            job->mc.lengths = DTX_MC_LENGTHS_DIAGONAL;
-            job->mc.w_proximity = DTX_MC_W_PROXIMITY_DIAGONAL;
-        }
-        if (cJSON_IsNumber(x = get(mc, "w_match")))
-            job->mc.w_match = x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "w_orphan")))
-            job->mc.w_orphan = x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "w_proximity")))
-            job->mc.w_proximity = x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "w_laplacian")))
-            job->mc.w_laplacian = x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "eps_factor")))
-            job->mc.eps_factor = x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "max_iter")))
-            job->mc.max_iter = (int)x->valuedouble;
-        if (cJSON_IsNumber(x = get(mc, "tol")))
-            job->mc.tol = x->valuedouble;
-    }
-
     /* ---- biharmonic parameters (defaults from the core) ---- */
     {
         dtx_kp_params d;
@@ -600,49 +641,20 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         job->bh.transfer.skin.gamma_logr = d.skin.gamma_logr;
         job->bh.transfer.skin.gamma_s = d.skin.gamma_s;
     }
-    if (bh) {
-        if (cJSON_IsString(x = get(bh, "keypoints")))
-            job->bh.keypoints =
-                strcmp(x->valuestring, "auto") == 0 ? DTX_BH_KEYS_AUTO : DTX_BH_KEYS_MARKERS;
-        if (cJSON_IsNumber(x = get(bh, "candidates")))
-            job->bh.candidates = (int32_t)x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "eps")))
-            job->bh.eps = x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "max_keypoints")))
-            job->bh.max_keypoints = (int32_t)x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "training_frames")))
-            job->bh.training_frames = (int32_t)x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "lambda")))
-            job->bh.transfer.skin.lambda = x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "gamma_logr")))
-            job->bh.transfer.skin.gamma_logr = x->valuedouble;
-        if (cJSON_IsNumber(x = get(bh, "gamma_s")))
-            job->bh.transfer.skin.gamma_s = x->valuedouble;
-    }
 
     /* ---- springs parameters (defaults from the core) ---- */
     dtx_springs_params_default(&job->springs);
-    if (spr) {
-        if (cJSON_IsBool(x = get(spr, "bending")))
-            job->springs.bending = cJSON_IsTrue(x);
-        if (cJSON_IsBool(x = get(spr, "internal")))
-            job->springs.internal = cJSON_IsTrue(x);
-        if (cJSON_IsNumber(x = get(spr, "levels")))
-            job->springs.levels = (int)x->valuedouble;
-        if (cJSON_IsNumber(x = get(spr, "coarse_min")))
-            job->springs.coarse_min = (int32_t)x->valuedouble;
-        if (cJSON_IsString(x = get(spr, "start")))
-            job->springs.start = strcmp(x->valuestring, "rest") == 0 ? DTX_SPRINGS_START_REST
-                                                                     : DTX_SPRINGS_START_LINEAR;
-        if (cJSON_IsNumber(x = get(spr, "max_iter")))
-            job->springs.max_iter = (int)x->valuedouble;
-        if (cJSON_IsNumber(x = get(spr, "tol")))
-            job->springs.tol = x->valuedouble;
-        if (cJSON_IsNumber(x = get(spr, "coarse_max_iter")))
-            job->springs.coarse_max_iter = (int)x->valuedouble;
-        if (cJSON_IsNumber(x = get(spr, "coarse_tol")))
-            job->springs.coarse_tol = x->valuedouble;
+
+    /* ---- each method's object, as its table names the settings ---- */
+    for (int k = 0; k < 4; k++) {
+        setting_ref refs[64];
+        int n = method_settings(job, (dtx_method)k, refs, 64);
+        read_settings(get(doc, method_names[k]), refs, n);
     }
+    /* The paper's absolute lengths come with the paper's weight unless
+     * w_proximity is given. */
+    if (job->mc.lengths == DTX_MC_LENGTHS_DIAGONAL && !get(mc, "w_proximity"))
+        job->mc.w_proximity = DTX_MC_W_PROXIMITY_DIAGONAL;
     return DTX_OK;
 }
 
@@ -1101,6 +1113,35 @@ static void sb_printf(sbuf *b, const char *fmt, ...)
     b->len += (size_t)n;
 }
 
+/* The method's settings as a JSON object, keys sorted (the canonical
+ * form the run key is made of). */
+static void write_settings(sbuf *b, const dtx_job *job)
+{
+    setting_ref refs[64];
+    int n = method_settings((dtx_job *)job, job->method, refs, 64);
+    for (int i = 1; i < n; i++) /* insertion sort by name; n is small */
+        for (int j = i; j > 0 && strcmp(refs[j - 1].row->name, refs[j].row->name) > 0; j--) {
+            setting_ref t = refs[j];
+            refs[j] = refs[j - 1];
+            refs[j - 1] = t;
+        }
+    sb_printf(b, "{");
+    for (int i = 0; i < n; i++) {
+        const dtx_setting *s = refs[i].row;
+        const char *p = (const char *)refs[i].base + s->offset;
+        sb_printf(b, "%s\"%s\":", i ? "," : "", s->name);
+        if (s->type == DTX_SETTING_DOUBLE)
+            sb_printf(b, "%.17g", *(const double *)p);
+        else if (s->type == DTX_SETTING_INT)
+            sb_printf(b, "%d", *(const int *)p);
+        else if (s->type == DTX_SETTING_BOOL)
+            sb_printf(b, "%s", *(const int *)p ? "true" : "false");
+        else
+            sb_printf(b, "\"%s\"", s->choices[*(const int *)p]);
+    }
+    sb_printf(b, "}");
+}
+
 char *dtx_job_params_json(const dtx_job *job)
 {
     sbuf b = {NULL, 0, 0, 0};
@@ -1112,26 +1153,15 @@ char *dtx_job_params_json(const dtx_job *job)
     if (job->method != DTX_METHOD_BIHARMONIC && job->method != DTX_METHOD_SPRINGS)
         sb_printf(&b, "{\"method\":\"%s\",\"%s\":", method, method);
     if (job->method == DTX_METHOD_MULTICOMPONENT) {
-        const dtx_mc_params *q = &job->mc;
-        sb_printf(&b,
-                  "{\"eps_factor\":%.17g,\"max_iter\":%d,\"proximity_lengths\":\"%s\","
-                  "\"tol\":%.17g,\"w_laplacian\":%.17g,\"w_match\":%.17g,\"w_orphan\":%.17g,"
-                  "\"w_proximity\":%.17g},\"sp04\":",
-                  q->eps_factor, q->max_iter,
-                  q->lengths == DTX_MC_LENGTHS_DIAGONAL ? "diagonal" : "relative", q->tol,
-                  q->w_laplacian, q->w_match, q->w_orphan, q->w_proximity);
+        write_settings(&b, job);
+        sb_printf(&b, ",\"sp04\":");
     }
     if (job->method == DTX_METHOD_BIHARMONIC) {
-        const dtx_bh_job_params *q = &job->bh;
-        sb_printf(&b,
-                  "{\"biharmonic\":{\"candidates\":%d,\"eps\":%.17g,\"gamma_logr\":%.17g,"
-                  "\"gamma_s\":%.17g,\"keypoints\":\"%s\",\"lambda\":%.17g,\"max_keypoints\":%d,"
-                  "\"training_frames\":%d},\"method\":\"biharmonic\"",
-                  (int)q->candidates, q->eps, q->transfer.skin.gamma_logr, q->transfer.skin.gamma_s,
-                  q->keypoints == DTX_BH_KEYS_AUTO ? "auto" : "markers", q->transfer.skin.lambda,
-                  (int)q->max_keypoints, (int)q->training_frames);
+        sb_printf(&b, "{\"biharmonic\":");
+        write_settings(&b, job);
+        sb_printf(&b, ",\"method\":\"biharmonic\"");
         /* The automatic key points are mapped through sp04's correspondence. */
-        if (q->keypoints == DTX_BH_KEYS_AUTO)
+        if (job->bh.keypoints == DTX_BH_KEYS_AUTO)
             sb_printf(&b, ",\"sp04\":");
     }
     if (job->method == DTX_METHOD_SPRINGS)
@@ -1148,14 +1178,8 @@ char *dtx_job_params_json(const dtx_job *job)
         sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g}", p->w_identity,
                   p->w_smooth);
         if (job->method == DTX_METHOD_SPRINGS) {
-            const dtx_springs_params *q = &job->springs;
-            sb_printf(&b,
-                      ",\"springs\":{\"bending\":%s,\"coarse_max_iter\":%d,\"coarse_min\":%d,"
-                      "\"coarse_tol\":%.17g,\"internal\":%s,\"levels\":%d,\"max_iter\":%d,"
-                      "\"start\":\"%s\",\"tol\":%.17g}",
-                      q->bending ? "true" : "false", q->coarse_max_iter, (int)q->coarse_min,
-                      q->coarse_tol, q->internal ? "true" : "false", q->levels, q->max_iter,
-                      q->start == DTX_SPRINGS_START_REST ? "rest" : "linear", q->tol);
+            sb_printf(&b, ",\"springs\":");
+            write_settings(&b, job);
         }
     }
     sb_printf(&b, "}");

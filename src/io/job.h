@@ -189,15 +189,10 @@ char *dtx_job_corr_params_json(const dtx_job *job, dtx_transfer_corr corr);
  * the job's values over that method's defaults. */
 void dtx_job_transfer_params(const dtx_job *job, dtx_transfer_params *p);
 
-/* The job schema, schemas/job.schema.json, as built into the binary
- * (job_schema_text.c) so that dtx works without the source tree: a
- * NULL-terminated list of pieces whose concatenation is the file byte for
- * byte (one piece per line, because C limits the length of one string
- * literal).  A unit test keeps the two identical. */
-extern const char *const dtx_job_schema_lines[];
-
-/* The whole embedded schema text, NUL-terminated and newly allocated
- * (caller frees); NULL when out of memory.  Thread-safe. */
+/* The job schema, schemas/job.schema.json, as built into the binary (the
+ * build embeds the file, cmake/embed.cmake) so that dtx works without the
+ * source tree: its whole text, NUL-terminated and newly allocated (caller
+ * frees); NULL when out of memory.  Thread-safe. */
 char *dtx_job_schema_text(void);
 
 #endif /* DTX_JOB_H */

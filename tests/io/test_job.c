@@ -124,8 +124,8 @@ static void test_embedded_schema(void)
         CHECK_EQ_INT(strlen(embedded), len);
         CHECK(strcmp(file, embedded) == 0);
         if (strcmp(file, embedded) != 0)
-            fprintf(stderr, "src/io/job_schema_text.c differs from schemas/job.schema.json: "
-                            "regenerate it (see its header)\n");
+            fprintf(stderr, "the schema built into dtx differs from schemas/job.schema.json: "
+                            "re-run the build (cmake/embed.cmake embeds it)\n");
     }
     /* The schema is one the validator fully understands. */
     schema = embedded ? cJSON_Parse(embedded) : NULL;
