@@ -44,11 +44,39 @@ void dtx_cli_print_warning(void *ctx, const char *msg)
     fprintf(stderr, "dtx: warning: %s\n", msg);
 }
 
+/* The isolated singleton's own session directory (empty once MPI_Finalize
+ * has cleaned it), removed at exit; "" when there is none. */
+static char session_base[4096];
+
+static void remove_session_base(void)
+{
+    if (session_base[0])
+        rmdir(session_base);
+    session_base[0] = '\0';
+}
+
 void dtx_cli_mpi_init(int *argc, char ***argv)
 {
     int provided;
-    if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMIX_RANK") && !getenv("PMI_RANK"))
-        setenv("OMPI_MCA_ess_singleton_isolated", "1", 0);
+    if (!getenv("OMPI_COMM_WORLD_SIZE") && !getenv("PMIX_RANK") && !getenv("PMI_RANK") &&
+        !getenv("OMPI_MCA_ess_singleton_isolated")) {
+        setenv("OMPI_MCA_ess_singleton_isolated", "1", 1);
+        /* Isolated singletons all get job family 0: without a directory
+         * of their own, concurrent ones (make -j) would share OpenMPI's
+         * session directory, and the first to finish would delete the
+         * files (MPI-IO's shared-file-pointer segments) of the others. */
+        if (!getenv("OMPI_MCA_orte_tmpdir_base")) {
+            const char *tmp = getenv("TMPDIR");
+            snprintf(session_base, sizeof session_base, "%s/dtx-mpi-XXXXXX",
+                     tmp && *tmp ? tmp : "/tmp");
+            if (mkdtemp(session_base)) {
+                setenv("OMPI_MCA_orte_tmpdir_base", session_base, 1);
+                atexit(remove_session_base);
+            } else {
+                session_base[0] = '\0';
+            }
+        }
+    }
     MPI_Init_thread(argc, argv, MPI_THREAD_FUNNELED, &provided);
 }
 
@@ -58,6 +86,7 @@ int dtx_cli_mpi_finish(dtx_status st)
     MPI_Finalize();
     if (stuck) {
         fflush(NULL);
+        remove_session_base();
         _exit(st == DTX_OK ? 0 : 1);
     }
     return st == DTX_OK ? 0 : 1;
