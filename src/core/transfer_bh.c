@@ -132,7 +132,8 @@ dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
 {
     dtx_bh_plan *p;
     dtx_status st;
-    double *Ws = NULL, *feat = NULL, t0;
+    double *Wcomputed = NULL, *feat = NULL, t0;
+    const double *Ws = src_weights; /* the source's weights, given or computed */
     int32_t *labels = NULL;
     dtx_bh_params def;
 
@@ -161,7 +162,8 @@ dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
     p->diag_s = dtx_bbox_diagonal(src->V, src->nv);
     p->Vt_aligned = dtx_alloc((size_t)tgt->nv, 3 * sizeof *p->Vt_aligned, 0);
     p->Wt = dtx_alloc((size_t)tgt->nv, (size_t)m * sizeof *p->Wt, 0);
-    Ws = dtx_alloc((size_t)src->nv, (size_t)m * sizeof *Ws, 0);
+    if (!src_weights)
+        Ws = Wcomputed = dtx_alloc((size_t)src->nv, (size_t)m * sizeof *Wcomputed, 0);
     labels = dtx_alloc((size_t)src->nv, sizeof *labels, 0);
     feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)(ntrain ? ntrain : 1) *
                                           sizeof *feat, 0);
@@ -170,9 +172,7 @@ dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
         goto fail;
     }
     t0 = omp_get_wtime();
-    if (src_weights)
-        memcpy(Ws, src_weights, (size_t)src->nv * (size_t)m * sizeof *Ws);
-    else if ((st = dtx_bbw(src, src_keys, m, NULL, Ws, NULL, err)) != DTX_OK) {
+    if (!src_weights && (st = dtx_bbw(src, src_keys, m, NULL, Wcomputed, NULL, err)) != DTX_OK) {
         dtx_error_prefix(err, "biharmonic: source weights");
         goto fail;
     }
@@ -202,13 +202,13 @@ dtx_status dtx_bh_plan_create_weights(const dtx_mesh *src, const dtx_mesh *tgt,
     }
     p->info.keys = m;
     p->info.clusters = p->nclusters;
-    free(Ws);
+    free(Wcomputed);
     free(labels);
     free(feat);
     *out = p;
     return DTX_OK;
 fail:
-    free(Ws);
+    free(Wcomputed);
     free(labels);
     free(feat);
     dtx_bh_plan_free(&p);
@@ -378,7 +378,7 @@ const dtx_transfer_method dtx_method_biharmonic = {
     .uses_keypoints = 1,
     .multi_component_target = 1,
     .settings = bh_settings,
-    .nsettings = 3,
+    .nsettings = (int)(sizeof bh_settings / sizeof *bh_settings),
     .plan_create = bh_method_create,
     .apply = bh_method_apply,
     .plan_free = bh_method_free,

@@ -122,6 +122,7 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
     if ((st = run_load_job(comm, job_path, &r.job, err)) != DTX_OK)
         return st;
     snprintf(r.partial, sizeof r.partial, "%s.partial", r.job.output_file);
+    snprintf(r.partial_new, sizeof r.partial_new, "%s.new", r.partial);
     dtx_job_transfer_params(&r.job, &r.prm);
     r.method = dtx_transfer_method_of(r.prm.kind);
     r.align = r.method->solve_group;

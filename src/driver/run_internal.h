@@ -110,6 +110,7 @@ typedef struct {
     dtx_weld_ctx src_weld; /* the source asset's vertices (src is welded) */
     hid_t src_file, out;
     char partial[4200];
+    char partial_new[4300]; /* OUTPUT.partial.new: the partial before its rename */
     char run_key[17];
     dtx_output_lock lock; /* rank 0: OUTPUT.lock, held from take_output to the end */
     out_mode mode;

@@ -74,12 +74,11 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
 {
     const dtx_job *j = &r->job;
     dtx_path_guard g;
-    char lockp[4300], breakp[4400], summary[4200], sumtmp[4300], fresh[4300];
+    char lockp[4300], breakp[4400], summary[4200], sumtmp[4300];
     dtx_status st;
     struct { const char *path, *use; } w[8];
     int nw = 0;
     snprintf(lockp, sizeof lockp, "%s.lock", j->output_file);
-    snprintf(fresh, sizeof fresh, "%s.new", r->partial);
     snprintf(breakp, sizeof breakp, "%s.break", lockp);
     snprintf(summary, sizeof summary, "%s",
              r->opts->summary_path ? r->opts->summary_path : j->output_file);
@@ -88,7 +87,7 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
     snprintf(sumtmp, sizeof sumtmp, "%.4200s.tmp", summary);
     w[nw].path = j->output_file, w[nw++].use = "the output";
     w[nw].path = r->partial, w[nw++].use = "the output's temporary file";
-    w[nw].path = fresh, w[nw++].use = "the output's temporary file";
+    w[nw].path = r->partial_new, w[nw++].use = "the output's temporary file";
     w[nw].path = lockp, w[nw++].use = "the output's lock file";
     w[nw].path = breakp, w[nw++].use = "the output's lock file";
     w[nw].path = summary, w[nw++].use = "the run summary";
@@ -119,7 +118,7 @@ static dtx_status check_output_paths(run_state *r, dtx_error *err)
     if (st == DTX_OK)
         st = dtx_output_path_check(r->partial, "the output's temporary file", err);
     if (st == DTX_OK)
-        st = dtx_output_path_check(fresh, "the output's temporary file", err);
+        st = dtx_output_path_check(r->partial_new, "the output's temporary file", err);
     if (st == DTX_OK && (st = dtx_output_path_check(summary, "the run summary", err)) != DTX_OK)
         from_summary = r->opts->summary_path != NULL;
     if (st != DTX_OK && from_summary)
@@ -318,12 +317,12 @@ void run_choose_mode(run_state *r)
  * variable-length labels, which parallel HDF5 cannot write), closed, then
  * renamed to OUTPUT.partial.  So an OUTPUT.partial always carries the mark,
  * however early a run is killed; a kill before the rename leaves only
- * OUTPUT.partial.new, which the next run holding the lock removes. */
-static dtx_status create_marked_partial(run_state *r, const char *fresh, dtx_error *err)
+ * OUTPUT.partial.new, which the next run that creates a partial removes. */
+static dtx_status create_marked_partial(run_state *r, dtx_error *err)
 {
     hid_t f = H5I_INVALID_HID;
     char srcdesc[4200];
-    dtx_status st = dtx_h5_create(fresh, MPI_COMM_NULL, &f, err);
+    dtx_status st = dtx_h5_create(r->partial_new, MPI_COMM_NULL, &f, err);
     if (st == DTX_OK)
         st = mark_partial(r, f, err);
     snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
@@ -337,11 +336,11 @@ static dtx_status create_marked_partial(run_state *r, const char *fresh, dtx_err
             st = e2.code;
         }
     }
-    if (st == DTX_OK && rename(fresh, r->partial) != 0)
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", fresh, r->partial,
+    if (st == DTX_OK && rename(r->partial_new, r->partial) != 0)
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", r->partial_new, r->partial,
                         strerror(errno));
     if (st != DTX_OK)
-        remove(fresh);
+        remove(r->partial_new);
     return st;
 }
 
@@ -350,16 +349,15 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     dtx_status st = DTX_OK;
     char *params = dtx_job_params_json(&r->job);
     char srcdesc[4200];
-    char fresh[4300];
-    snprintf(fresh, sizeof fresh, "%s.new", r->partial);
     if (r->rank == 0) {
         st = run_make_dirs(r->job.output_file, 1, err);
         if (st == DTX_OK && remove(r->partial) != 0 && errno != ENOENT)
             st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", r->partial, strerror(errno));
-        if (st == DTX_OK && remove(fresh) != 0 && errno != ENOENT)
-            st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", fresh, strerror(errno));
+        if (st == DTX_OK && remove(r->partial_new) != 0 && errno != ENOENT)
+            st = dtx_seterr(err, DTX_EIO, "%s: cannot remove: %s", r->partial_new,
+                            strerror(errno));
         if (st == DTX_OK)
-            st = create_marked_partial(r, fresh, err);
+            st = create_marked_partial(r, err);
     }
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
