@@ -580,8 +580,10 @@ static dtx_status read_faces_arg(hid_t in, const char *input, const char *arg, i
     hid_t h = in;
     dtx_status st;
     split_faces_arg(arg, input, file, sizeof file, &path);
-    if (strcmp(file, input) != 0 && (st = dtx_h5_foreign_open(file, &h, err)) != DTX_OK)
+    if (strcmp(file, input) != 0 && (st = dtx_h5_foreign_open(file, &h, err)) != DTX_OK) {
+        dtx_error_prefix(err, "--faces");
         return st;
+    }
     st = dtx_h5_read_faces(h, file, path, nv, nf, F, err);
     if (h != in)
         H5Fclose(h);

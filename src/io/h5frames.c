@@ -278,19 +278,16 @@ dtx_status dtx_h5_read_faces(hid_t file, const char *fname, const char *path, in
     dtx_status st;
     *F = NULL;
     *nf = 0;
-    snprintf(name, sizeof name, "%s:%s", fname, path);
-    if ((st = open_dataset(file, name, path, &dset, dims, &ndim, &cls, &esz, err)) != DTX_OK) {
-        if (st == DTX_EFORMAT)
-            dtx_error_prefix(err, "faces");
+    snprintf(name, sizeof name, "faces %s:%s", fname, path);
+    if ((st = open_dataset(file, name, path, &dset, dims, &ndim, &cls, &esz, err)) != DTX_OK)
         return st;
-    }
     shape_text(dims, ndim, s, sizeof s);
     if (cls != H5T_INTEGER)
-        st = dtx_seterr(err, DTX_EFORMAT, "faces %s: expected integer vertex indices, found %s",
-                        name, cls == H5T_FLOAT ? "floating-point values" : "non-numeric values");
+        st = dtx_seterr(err, DTX_EFORMAT, "%s: expected integer vertex indices, found %s", name,
+                        cls == H5T_FLOAT ? "floating-point values" : "non-numeric values");
     else if (ndim != 2 || dims[1] != 3 || dims[0] < 1 || dims[0] > INT32_MAX)
         st = dtx_seterr(err, DTX_EFORMAT,
-                        "faces %s: shape (%s): expected (faces, 3), triangles of 0-based vertex "
+                        "%s: shape (%s): expected (faces, 3), triangles of 0-based vertex "
                         "indices",
                         name, s);
     else
@@ -298,13 +295,13 @@ dtx_status dtx_h5_read_faces(hid_t file, const char *fname, const char *path, in
     if (st == DTX_OK && !(raw = dtx_alloc((size_t)dims[0] * 3, sizeof *raw, 0)))
         st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", name);
     if (st == DTX_OK && H5Dread(dset, H5T_NATIVE_INT64, H5S_ALL, H5S_ALL, H5P_DEFAULT, raw) < 0)
-        st = dtx_seterr(err, DTX_EIO, "faces %s: cannot read the dataset", name);
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot read the dataset", name);
     if (st == DTX_OK && !(*F = dtx_alloc((size_t)dims[0] * 3, sizeof **F, 0)))
         st = dtx_seterr(err, DTX_ENOMEM, "%s: out of memory", name);
     for (size_t i = 0; st == DTX_OK && i < (size_t)dims[0] * 3; i++) {
         if (raw[i] < 0 || raw[i] >= nv)
             st = dtx_seterr(err, DTX_EFORMAT,
-                            "faces %s: face %zu (0-based): vertex index %lld out of range [0, %d) "
+                            "%s: face %zu (0-based): vertex index %lld out of range [0, %d) "
                             "(indices are 0-based)",
                             name, i / 3, (long long)raw[i], (int)nv);
         else

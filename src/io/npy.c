@@ -181,8 +181,11 @@ dtx_status dtx_npy_parse_header(const char *name, const unsigned char *buf, size
     dict_reader r;
     dtx_status st;
     memset(h, 0, sizeof *h);
-    if (len < 10 || memcmp(buf, magic, sizeof magic) != 0)
+    if (len < sizeof magic || memcmp(buf, magic, sizeof magic) != 0)
         return dtx_seterr(err, DTX_EPARSE, "%s: not a .npy file (no \"\\x93NUMPY\" magic)", name);
+    if (len < 10)
+        return dtx_seterr(err, DTX_EPARSE, "%s: %zu bytes, shorter than a .npy header (truncated?)",
+                          name, len);
     if (buf[6] < 1 || buf[6] > 3)
         return dtx_seterr(err, DTX_EPARSE, "%s: .npy format version %d.%d (1.0, 2.0, 3.0 known)",
                           name, (int)buf[6], (int)buf[7]);
