@@ -702,9 +702,10 @@ static int import_layout(layout_kind kind, const char *input, const char *out, c
         st = read_faces_arg(in, input, faces, rest.nv, &nf, &F, &err);
         if (st == DTX_OK && (nf != rest.nf || memcmp(F, rest.F, (size_t)nf * 3 * sizeof *F) != 0))
             st = dtx_seterr(&err, DTX_EFORMAT,
-                            "faces %s:%s differ from the rest mesh %s's (%d faces vs %d): the "
+                            "faces %s:%s differ from the rest mesh %s's (%d faces vs %d%s): the "
                             "frames must share the rest mesh's connectivity and vertex order",
-                            faces_file, faces_path, mesh, (int)nf, (int)rest.nf);
+                            faces_file, faces_path, mesh, (int)nf, (int)rest.nf,
+                            nf == rest.nf ? ", not the same triangles" : "");
         free(F);
         if (st != DTX_OK)
             goto done;
