@@ -202,8 +202,15 @@ static int import_mesh(int argc, char **argv)
         }
     }
     st = open_for_import(out, &f, &created, &err);
-    if (st == DTX_OK)
-        st = dtx_h5_write_mesh_with(f, group, &m, &attrs, pos[0], &err);
+    if (st == DTX_OK) {
+        /* The mesh's source: the file, and for a dataset which frame. */
+        char source[4096];
+        if (dataset)
+            snprintf(source, sizeof source, "%s:%s frame %ld", pos[0], dataset, frame);
+        else
+            snprintf(source, sizeof source, "%s", pos[0]);
+        st = dtx_h5_write_mesh_with(f, group, &m, &attrs, source, &err);
+    }
     dtx_mesh_free(&m);
     dtx_mesh_attrs_free(&attrs);
     if (st == DTX_OK && dataset)

@@ -45,6 +45,8 @@ check "... each dataset as /sequences/NAME: jump (3 frames)" \
     grep -q "^dtx: dfaust.hdf5:/jump: 3 frames -> dfaust.h5:/sequences/jump (float32)" <<<"$out"
 check "... and walk (5 frames)" \
     grep -q "^dtx: dfaust.hdf5:/walk: 5 frames -> dfaust.h5:/sequences/walk (float32)" <<<"$out"
+check "... the rest mesh's source names the dataset and frame" \
+    grep -q "source *dfaust.hdf5:/walk frame 0" <<<"$("$DTX" inspect dfaust.h5 2>&1)"
 # Faces from another file, a dataset of one sequence.
 q import sequence dfaust.hdf5 --dataset /walk --axes VCT --faces other-faces.h5:/tri \
     -o dfaust.h5 --name walk-faces-elsewhere --mesh /meshes/body
