@@ -822,6 +822,10 @@ static int import_sequence(int argc, char **argv)
                      "after its dataset");
     if (kind == LAYOUT_HDF5 && npos != 1)
         return usage(argc, argv, "--dataset reads one HDF5 file");
+    for (int i = 0; kind == LAYOUT_NONE && npos > 1 && i < npos && i < 100000; i++)
+        if (has_ext(pos[i], ".npy") || has_ext(pos[i], ".pc2") || has_ext(pos[i], ".mdd"))
+            return usage(argc, argv,
+                         "a .npy, .pc2 or .mdd file is a whole sequence: import one at a time");
     if (kind != LAYOUT_HDF5 && (axes || faces))
         return usage(argc, argv, "--axes and --faces go with --dataset (an HDF5 input)");
     if (kind != LAYOUT_NONE &&

@@ -187,4 +187,6 @@ reject layout-usage '--axes and --faces go with --dataset' \
     "$DTX" import sequence walk.npy --axes VCT -o e.h5 --name s --mesh /meshes/body
 reject layout-usage '--name goes with one sequence' \
     "$DTX" import sequence dfaust.hdf5 --dataset '/*' --axes VCT -o e.h5 --name s --mesh /meshes/body
+reject layout-usage 'a \.npy, \.pc2 or \.mdd file is a whole sequence: import one at a time' \
+    "$DTX" import sequence walk.npy walk.pc2 -o e.h5 --name s --mesh /meshes/body
 finish
