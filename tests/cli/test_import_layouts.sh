@@ -91,10 +91,15 @@ job() {
 JOB
     "$DTX" run --quiet "job-$1.json" || { echo "FAILED: dtx run job-$1.json"; fails=$((fails + 1)); }
 }
+# The sanitizer pass (DTX_SANITIZED=1) runs the .npy and DFAUST jobs only:
+# the plain pass transfers every layout, and the stored frames of all of
+# them are already checked equal above.
+layouts="npy npy64 pc2 mdd"
+[ -z "${DTX_SANITIZED:-}" ] || layouts=npy
 job obj '["/sequences/*"]'
-for l in npy npy64 pc2 mdd; do job $l '["/sequences/walk"]'; done
+for l in $layouts; do job $l '["/sequences/walk"]'; done
 job dfaust '["/sequences/*"]'
-for l in npy npy64 pc2 mdd dfaust; do
+for l in $layouts dfaust; do
     check "$l: the transfer equals the OBJ import's (dtx diff --tol 0)" \
         "$DTX" diff out-obj.h5 out-$l.h5 /results/tgt/walk --tol 0
 done
