@@ -122,7 +122,13 @@ static dtx_status open_dataset(hid_t file, const char *name, const char *path, h
 {
     H5O_info_t info;
     hid_t sp, ft;
+    char abs[4096];
     *dset = H5I_INVALID_HID;
+    /* "walk" is "/walk": paths are taken from the root group. */
+    if (path[0] != '/') {
+        snprintf(abs, sizeof abs, "/%s", path);
+        path = abs;
+    }
     if (!dtx_h5_path_exists(file, path))
         return dtx_seterr(err, DTX_EFORMAT, "%s: no such dataset", name);
     if (H5Oget_info_by_name2(file, path, &info, H5O_INFO_BASIC, H5P_DEFAULT) < 0 ||
@@ -332,8 +338,13 @@ dtx_status dtx_h5_match_datasets(hid_t file, const char *fname, const char *grou
     dtx_h5_names l;
     char **out = NULL;
     int kept = 0;
+    char abs[4096];
     *paths = NULL;
     *n = 0;
+    if (group[0] != '/') {
+        snprintf(abs, sizeof abs, "/%s", group);
+        group = abs;
+    }
     if (!dtx_h5_path_exists(file, group) ||
         H5Oget_info_by_name2(file, group, &info, H5O_INFO_BASIC, H5P_DEFAULT) < 0 ||
         info.type != H5O_TYPE_GROUP)

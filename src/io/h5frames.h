@@ -14,6 +14,9 @@
  * (memory O(block x V), whatever the sequence's length); HDF5 converts any
  * floating-point type to double.  Integer positions are refused.
  *
+ * Dataset and group paths are taken from the root group ("walk" is
+ * "/walk").
+ *
  * Thread-safety: as HDF5 (dtx opens files from one thread).
  */
 #ifndef DTX_H5FRAMES_H
