@@ -3,7 +3,8 @@
 #
 # Usage: scripts/bad-input-census.sh
 #   Builds build/ (as scripts/build.sh), runs the bad-input tests
-#   (cli.bad_input, cli.bad_input_table, cli.checks) with DTX_CENSUS set, so
+#   (cli.bad_input, cli.bad_input_table, cli.checks, cli.import_layouts) with
+#   DTX_CENSUS set, so
 #   each bad input they try is recorded with its outcome, and prints one row
 #   per class of input (the part of the row tag before its first '-'):
 #   tried, clear error (non-zero exit, the message the table promises, no
@@ -20,7 +21,7 @@ cd "$repo"
 DTX_SKIP_SETUP=${DTX_SKIP_SETUP:-0} scripts/build.sh > /dev/null
 census=$(mktemp "${TMPDIR:-/tmp}/dtx-census.XXXXXX")
 trap 'rm -f "$census"' EXIT
-DTX_CENSUS=$census ctest --test-dir build -R '^cli\.(bad_input|bad_input_table|checks)$' \
+DTX_CENSUS=$census ctest --test-dir build -R '^cli\.(bad_input|bad_input_table|checks|import_layouts)$' \
     -j2 > /dev/null || echo "census: warning: some bad-input test failed (see ctest)" >&2
 python3 - "$census" <<'PY'
 import collections, sys

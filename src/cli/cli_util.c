@@ -2,6 +2,7 @@
  * cli_util.c: messages and option lookup shared by the `dtx` commands.
  */
 #include "cli_util.h"
+#include "options.h"
 
 #include "h5layout.h"
 
@@ -140,11 +141,22 @@ static int is_flag_with_value(const char *a)
     return 0;
 }
 
+/* Whether option a of command c takes a value: its table (options.h) says
+ * so when it lists a; the list above otherwise. */
+static int takes_value(const dtx_cli_cmd *c, const char *a)
+{
+    for (const dtx_cli_opt *o = c ? c->opts : NULL; o && o->name; o++)
+        if (strcmp(o->name, a) == 0)
+            return o->metavar != NULL;
+    return is_flag_with_value(a);
+}
+
 int dtx_cli_positionals(int argc, char **argv, int from, char **out, int cap)
 {
+    const dtx_cli_cmd *c = dtx_cli_find(argc, argv);
     int n = 0;
     for (int i = from; i < argc; i++) {
-        if (is_flag_with_value(argv[i])) {
+        if (takes_value(c, argv[i])) {
             i++;
             continue;
         }

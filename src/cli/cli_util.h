@@ -68,7 +68,9 @@ int dtx_cli_take_slot(const char *cmd, const dtx_cli_slot *slots, size_t nslots,
                       void *args, int argc, char **argv, int *i, char *buf, size_t n);
 
 /* The positional arguments of argv[from..]: neither an option ("--x"), nor
- * the value of one of the import and run options that take a value.  Stores
+ * the value of an option that takes one (by the command's option table,
+ * options.h; for a command line no table names, by a list of the import and
+ * run options that take a value).  Stores
  * at most cap of them in out and returns how many there are (which may be
  * more than cap). */
 int dtx_cli_positionals(int argc, char **argv, int from, char **out, int cap);

@@ -16,13 +16,20 @@
 static const dtx_cli_opt import_mesh_opts[] = {
     {"-o", "OUT.h5", "the dtx file to add the mesh to (created when missing)"},
     {"--name", "NAME", "the mesh's name: it becomes /meshes/NAME"},
+    {"--dataset", "PATH", "take the vertices from one frame of this dataset of an HDF5 input"},
+    {"--frame", "N", "which frame of --dataset (0-based; default 0)"},
+    {"--axes", "ORDER", "the dataset's axis order in T, V, C (default TVC; DFAUST: VCT)"},
+    {"--faces", "[FILE:]PATH", "the (F, 3) integer dataset of 0-based faces (needed with "
+                               "--dataset)"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd import_mesh = {
     "import mesh",
     "add a rest mesh (OBJ, PLY, OFF, glTF 2.0 or FBX) to a dtx file",
-    "dtx import mesh FILE.(obj|ply|off|glb|gltf|fbx) -o OUT.h5 --name NAME",
+    "dtx import mesh FILE.(obj|ply|off|glb|gltf|fbx) -o OUT.h5 --name NAME\n"
+    "dtx import mesh FILE.h5 --dataset PATH --faces [FILE:]PATH [--axes ORDER] [--frame N]\n"
+    "                -o OUT.h5 --name NAME",
     "Reads the mesh, checks it (indices, finite coordinates, degenerate faces) and\n"
     "stores it as /meshes/NAME with its UVs, normals, materials (OBJ usemtl/mtllib,\n"
     "glTF, FBX) or vertex colours (PLY), in the file's own vertex order.  Polygons are\n"
@@ -30,9 +37,13 @@ static const dtx_cli_cmd import_mesh = {
     "UVs, normals and materials (OBJ vt/vn/usemtl/mtllib, PLY vertex colours,\n"
     "normals and s/t; glTF/FBX through assimp, in the file's vertex order) are\n"
     "stored with it.\n"
-    "A failed import leaves a new file removed and an existing file as it was.",
+    "A failed import leaves a new file removed and an existing file as it was.\n"
+    "From an HDF5 file other programs wrote (DFAUST's registrations, say), one frame\n"
+    "of a positions dataset (any axis order, --axes) with a faces dataset.",
     import_mesh_opts,
-    "dtx import mesh cat-reference.obj -o cat-lion.h5 --name cat",
+    "dtx import mesh cat-reference.obj -o cat-lion.h5 --name cat\n"
+    "dtx import mesh registrations_f.hdf5 --dataset /50004_jiggle_on_toes --axes VCT \\\n"
+    "    --faces /faces -o in.h5 --name 50004",
     2,
 };
 
@@ -46,22 +57,40 @@ static const dtx_cli_opt import_sequence_opts[] = {
                    "stored, exports assume 24)"},
     {"--glob", "PATTERN", "take only the files whose name matches (shell pattern, e.g. 'pose-*.obj')"},
     {"--exclude", "PATTERN", "leave out the files whose name matches (repeatable)"},
+    {"--dataset", "PATH", "read the frames from this dataset of an HDF5 input; a wildcard in "
+                          "the last part ('/*') imports every matching dataset, each named "
+                          "after it"},
+    {"--axes", "ORDER", "the dataset's axis order in T (frames), V (vertices), C (x, y, z): "
+                        "TVC (default), VCT for DFAUST; VC for one frame"},
+    {"--faces", "[FILE:]PATH", "an integer (F, 3) dataset of 0-based faces (in the input, or "
+                               "in FILE) that must equal the rest mesh's; left out of a "
+                               "wildcard"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd import_sequence = {
     "import sequence",
-    "add an animation (a folder or a list of mesh files, one per frame)",
+    "add an animation (mesh files, a .npy, PC2 or MDD file, HDF5 datasets)",
     "dtx import sequence (DIR | FILE...) -o OUT.h5 --name NAME --mesh /meshes/MESH\n"
     "                    [--dtype float32|float64] [--compress none|gzip] [--fps F]\n"
-    "                    [--glob PATTERN] [--exclude PATTERN]...",
+    "                    [--glob PATTERN] [--exclude PATTERN]...\n"
+    "dtx import sequence FILE.(npy|pc2|mdd) -o OUT.h5 --name NAME --mesh /meshes/MESH ...\n"
+    "dtx import sequence FILE.h5 --dataset PATH [--axes ORDER] [--faces [FILE:]PATH]\n"
+    "                    -o OUT.h5 (--name NAME | --dataset with a wildcard) --mesh /meshes/MESH ...",
     "A folder's mesh files are taken in natural order (cat-2 before cat-10).  Every\n"
     "frame must have the rest mesh's vertex count and faces; a frame identical to the\n"
     "rest mesh (a reference pose in the folder) gets a warning.  Frame file names are\n"
-    "stored (dtx inspect lists them).",
+    "stored (dtx inspect lists them).\n"
+    "A .npy array (T, V, 3) or (V, 3) of float32 or float64, a PC2 or an MDD point\n"
+    "cache gives the positions of the rest mesh's vertices, in its vertex order.  An\n"
+    "HDF5 dataset may have any axis order (--axes); --dataset '/*' imports every\n"
+    "dataset of the root group but the --faces one, as /sequences/DATASET_NAME.",
     import_sequence_opts,
     "dtx import sequence poses/ -o cat-lion.h5 --name cat-poses --mesh /meshes/cat\n"
-    "dtx import sequence gallop/ --exclude '*reference*' -o horse.h5 --name gallop --mesh /meshes/horse --fps 30",
+    "dtx import sequence gallop/ --exclude '*reference*' -o horse.h5 --name gallop --mesh /meshes/horse --fps 30\n"
+    "dtx import sequence walk.npy -o in.h5 --name walk --mesh /meshes/body\n"
+    "dtx import sequence registrations_f.hdf5 --dataset '/50004_*' --axes VCT --faces /faces \\\n"
+    "    -o in.h5 --mesh /meshes/50004",
     2,
 };
 

@@ -7,6 +7,8 @@
 #include "mdd.h"
 #include "byteorder.h"
 
+#include "meshfile_util.h"
+
 #include <float.h>
 #include <math.h>
 #include <stdio.h>
@@ -100,4 +102,21 @@ dtx_status dtx_mdd_parse(const char *name, const unsigned char *buf, size_t len,
     *num_samples = T;
     *num_points = n;
     return DTX_OK;
+}
+
+dtx_status dtx_mdd_read(const char *path, int32_t *num_samples, int32_t *num_points, float **times,
+                        float **P, dtx_error *err)
+{
+    char *buf = NULL;
+    size_t len = 0;
+    dtx_status st;
+    *times = NULL;
+    *P = NULL;
+    *num_samples = *num_points = 0;
+    if ((st = dtx_file_read_all(path, &buf, &len, err)) != DTX_OK)
+        return st;
+    st = dtx_mdd_parse(path, (const unsigned char *)buf, len, num_samples, num_points, times, P,
+                       err);
+    free(buf);
+    return st;
 }

@@ -72,4 +72,9 @@ dtx_status dtx_mdd_parse(const char *name, const unsigned char *buf, size_t len,
                          int32_t *num_samples, int32_t *num_points, float **times, float **P,
                          dtx_error *err);
 
+/* Reads the file at path and parses it as dtx_mdd_parse does; DTX_EIO
+ * when it cannot be read. */
+dtx_status dtx_mdd_read(const char *path, int32_t *num_samples, int32_t *num_points, float **times,
+                        float **P, dtx_error *err);
+
 #endif /* DTX_MDD_H */
