@@ -127,6 +127,14 @@ for src in "$repo"/src/core/*.c "$repo"/src/io/*.c; do
     fi
 done
 for p in "${pids[@]}"; do wait "$p"; done
+# The job schema is compiled in (as in CMakeLists.txt's dtx_embed).
+schema_c=$dir/obj/job_schema_json.c
+if [[ ! -f $schema_c || $repo/schemas/job.schema.json -nt $schema_c ]]; then
+    cmake -DIN="$repo/schemas/job.schema.json" -DOUT="$schema_c" -DSYM=dtx_job_schema_json \
+        -P "$repo/cmake/embed.cmake" || die "embedding schemas/job.schema.json failed"
+    compile_one "$schema_c" "${schema_c%.c}.o"
+fi
+objs+=("${schema_c%.c}.o")
 present=()
 for o in "${objs[@]}"; do [[ -f $o ]] && present+=("$o"); done
 rm -f "$dir/libdtx_fuzz.a"
