@@ -12,8 +12,9 @@
 # Everything a CI test needs is required: Debian's blender (cli.blender),
 # chromium (the browser workbench), nodejs and npm (only when node/npm are not
 # already on PATH, e.g. from nodesource), libassimp-dev (glTF/FBX import), clang
-# and libclang-rt-14-dev (the fuzzers); then npm packages, pinned, into
-# build-tools/ (ignored by git): gltf-validator (cli.gltf_validator), three and
+# and libclang-rt-14-dev (the fuzzers), Slurm's slurmctld, slurmd and slurm-client
+# (cli.slurm starts a one-node cluster of its own, with auth/none: no munge);
+# then npm packages, pinned, into build-tools/ (ignored by git): gltf-validator (cli.gltf_validator), three and
 # puppeteer-core (which downloads no browser; it drives Debian's chromium).
 set -euo pipefail
 
@@ -22,7 +23,7 @@ die() { echo "setup: error: $*" >&2; exit 1; }
 required=(build-essential cmake pkg-config libopenmpi-dev openmpi-bin libhdf5-openmpi-dev
           hdf5-tools libsuitesparse-dev libopenblas-dev liblapack-dev libcjson-dev libpng-dev
           xz-utils valgrind blender chromium libassimp-dev clang libclang-rt-14-dev
-          python3-h5py python3-numpy)
+          python3-h5py python3-numpy slurmctld slurmd slurm-client)
 # Debian's nodejs and npm only when no node/npm is on PATH (a nodesource node
 # ships its own npm and conflicts with Debian's npm package).
 command -v node > /dev/null || required+=(nodejs)
