@@ -483,12 +483,18 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     }
 
     /* Stage 2: replace each key point by a better candidate, sweep until
-     * nothing changes. */
-    for (int sweep = 0; sweep < p->max_sweeps; sweep++) {
+     * nothing changes.  A round depends only on the set and j, so when the
+     * last replacement was key last_j's in the previous sweep and nothing
+     * changed since, the rounds of keys after last_j would repeat that
+     * sweep's, which changed nothing: the sweep ends there, as it would
+     * have after them. */
+    for (int sweep = 0, last_j = -1; sweep < p->max_sweeps; sweep++) {
         int changed = 0;
         res->sweeps = sweep + 1;
         for (int32_t j = 0; j < res->count; j++) {
             int32_t b, old;
+            if (!changed && sweep > 0 && j > last_j)
+                break;
             if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, errs,
                                   res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
@@ -505,6 +511,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             res->error = errs[b];
             res->replacements++;
             changed = 1;
+            last_j = j;
             if ((st = push_trace(res, &tcap, errs[b], err)) != DTX_OK)
                 goto fail;
         }
