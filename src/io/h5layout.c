@@ -2539,12 +2539,22 @@ dtx_status dtx_h5_read_weights(hid_t file, const char *group, int32_t nv, dtx_h5
         (st = open_checked(file, wpath, H5T_FLOAT, 2, want_w, "nv x m", &wd, wdims, err)) !=
             DTX_OK)
         goto fail;
-    if (hdims[0] < 1 || hdims[0] > INT32_MAX || wdims[1] != hdims[0] || wdims[0] > INT32_MAX ||
-        (nv >= 0 && wdims[0] != (hsize_t)nv)) {
-        st = ferr(err, DTX_EFORMAT, file, wpath,
-                  "is %llu x %llu, expected %d x %llu (the mesh's vertices x the handles)",
-                  (unsigned long long)wdims[0], (unsigned long long)wdims[1], (int)nv,
+    if (hdims[0] < 1 || hdims[0] > INT32_MAX) {
+        st = ferr(err, DTX_EFORMAT, file, hpath, "has %llu entries (at least 1 handle needed)",
                   (unsigned long long)hdims[0]);
+        goto fail;
+    }
+    if (wdims[1] != hdims[0] || wdims[0] > INT32_MAX || (nv >= 0 && wdims[0] != (hsize_t)nv)) {
+        if (nv >= 0)
+            st = ferr(err, DTX_EFORMAT, file, wpath,
+                      "is %llu x %llu, expected %d x %llu (the mesh's vertices x the handles)",
+                      (unsigned long long)wdims[0], (unsigned long long)wdims[1], (int)nv,
+                      (unsigned long long)hdims[0]);
+        else
+            st = ferr(err, DTX_EFORMAT, file, wpath,
+                      "is %llu x %llu, expected one column per handle (%llu)",
+                      (unsigned long long)wdims[0], (unsigned long long)wdims[1],
+                      (unsigned long long)hdims[0]);
         goto fail;
     }
     if ((st = read_whole(file, hd, hpath, hdims, 1, H5T_NATIVE_INT32, sizeof(int32_t),
