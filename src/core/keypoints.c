@@ -116,51 +116,35 @@ static double rest_radius(const dtx_mesh *m)
 }
 
 /* The error of weights W (nv x m, rows summing to 1) with the clustering
- * labels (k clusters): fit every frame, skin, mean vertex distance / R.
- *
- * Cut short: every term of the mean is >= 0 and a rounded sum of
- * non-negative terms never decreases, so after each frame the error of the
- * frames so far (divided as the full mean is) is a lower bound of the full
- * error.  When it exceeds bound, the rest is skipped and *out is that lower
- * bound (> bound) with *cut = 1: the caller uses it only to know the
- * candidate loses.  Frames are fitted one at a time, each exactly as a call
- * with all of them fits it, so a full evaluation is the same bits either
- * way. */
+ * labels (k clusters): fit every frame, skin, mean vertex distance / R. */
 static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, const int32_t *labels,
-                               int32_t k, double bound, kp_work *w, double *out, int *cut,
-                               dtx_error *e)
+                               int32_t k, kp_work *w, double *out, dtx_error *e)
 {
     dtx_skin_params sp = c->skin;
     dtx_skin_fit *fit = NULL;
     dtx_skin_out o;
-    dtx_status st = DTX_OK;
-    double sum = 0.0, scale = (double)c->nframes * (double)c->nv;
+    dtx_status st;
+    double sum = 0.0;
     sp.threads = 1;
     sp.nclusters = k;
-    *cut = 0;
     if ((st = dtx_skin_fit_create(c->sm, m, W, labels, k, &sp, &fit, e)) != DTX_OK)
         return st;
     memset(&o, 0, sizeof o);
-    for (int32_t f = 0; f < c->nframes && st == DTX_OK; f++) {
+    o.T = w->T;
+    st = dtx_skin_fit_frames(fit, c->nframes, c->X, &sp, &o, e);
+    dtx_skin_fit_free(&fit);
+    if (st != DTX_OK)
+        return st;
+    for (int32_t f = 0; f < c->nframes; f++) {
         const double *x = c->X + (size_t)f * 3 * (size_t)c->nv;
-        o.T = w->T + (size_t)f * (size_t)m * 12;
-        if ((st = dtx_skin_fit_frames(fit, 1, x, &sp, &o, e)) != DTX_OK)
-            break;
-        dtx_skin_apply(c->nv, m, c->src->V, W, 1, o.T, 1, w->Q);
+        dtx_skin_apply(c->nv, m, c->src->V, W, 1, w->T + (size_t)f * (size_t)m * 12, 1, w->Q);
         for (int32_t i = 0; i < c->nv; i++) {
             const double *q = w->Q + 3 * (size_t)i, *y = x + 3 * (size_t)i;
             sum += sqrt((q[0] - y[0]) * (q[0] - y[0]) + (q[1] - y[1]) * (q[1] - y[1]) +
                         (q[2] - y[2]) * (q[2] - y[2]));
         }
-        if (f + 1 < c->nframes && sum / scale / c->radius > bound) {
-            *cut = 1;
-            break;
-        }
     }
-    dtx_skin_fit_free(&fit);
-    if (st != DTX_OK)
-        return st;
-    *out = sum / scale / c->radius;
+    *out = sum / ((double)c->nframes * (double)c->nv) / c->radius;
     return isfinite(*out) ? DTX_OK
                           : dtx_seterr(e, DTX_ENONFINITE, "key points: non-finite fit error");
 }
@@ -177,13 +161,13 @@ static dtx_status cluster(const kp_ctx *c, int32_t m, const double *W, int32_t k
 
 /* Exact evaluation of a handle set: bounded weights, its own clustering. */
 static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m, int threads,
-                             double bound, kp_work *w, double *out, int *cut, dtx_error *e)
+                             kp_work *w, double *out, dtx_error *e)
 {
     dtx_status st = dtx_bbw(c->src, handles, m, NULL, w->W, NULL, e);
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, bound, w, out, cut, e);
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
     return st;
 }
 
@@ -201,9 +185,8 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
     int32_t k0, k1;
     double *Wk;
     dtx_status st;
-    int cut;
     if (p->part_count == 1 || n > INT32_MAX)
-        return eval_exact(c, handles, m, threads, INFINITY, w, out, &cut, e);
+        return eval_exact(c, handles, m, threads, w, out, e);
     k0 = (int32_t)((int64_t)m * p->part_index / p->part_count);
     k1 = (int32_t)((int64_t)m * (p->part_index + 1) / p->part_count);
     Wk = dtx_alloc((size_t)n, sizeof *Wk, 0);
@@ -220,52 +203,37 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, INFINITY, w, out, &cut, e);
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
     return st;
 }
 
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
  * == 0) that this part owns; +INFINITY elsewhere.  replace_j < 0: add the
  * candidate; else replace handle replace_j by it.  Fast mode: labels (nv)
- * is the round's clustering with k clusters.
- *
- * Only the least error matters, and only when it is below `bound` (the
- * current set's error: a candidate must beat it to be taken).  So an
- * evaluation stops as soon as its lower bound (eval_weights) exceeds the
- * smaller of bound and the least full error this part has seen in the
- * round; errs[i] is then that lower bound, which is above the round's
- * least error or above bound.  The candidate with the least error (and
- * the lowest index among equal ones) is never cut, so the winner and its
- * error are the same bits whatever the threads' timing; only how many
- * evaluations are cut varies. */
+ * is the round's clustering with k clusters. */
 static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                        int32_t ncand, const unsigned char *inset, int replace_j,
                        const int32_t *labels, int32_t k, kp_work *ws, int nthreads,
-                       const dtx_kp_params *p, double bound, double *errs, int64_t *evals,
-                       int64_t *failed, int64_t *cut_short)
+                       const dtx_kp_params *p, double *errs, int64_t *evals, int64_t *failed)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     const int32_t mm = replace_j < 0 ? m + 1 : m;
-    int64_t ev = 0, fl = 0, ncut = 0;
-    double best = bound; /* shared: the least full error so far, or bound */
+    int64_t ev = 0, fl = 0;
     for (int32_t i = 0; i < ncand; i++)
         errs[i] = INFINITY;
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl, ncut)
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl)
     for (int32_t i = 0; i < ncand; i++) {
         kp_work *w = &ws[omp_get_thread_num()];
         dtx_error e;
         dtx_status st;
-        double v = INFINITY, b;
-        int cut = 0;
+        double v = INFINITY;
         if (inset[i] || i % p->part_count != p->part_index)
             continue;
         ev++;
-#pragma omp atomic read
-        b = best;
         if (c->exact) {
             memcpy(w->handles, dtx_bbw_incr_handles(incr), (size_t)m * sizeof *w->handles);
             w->handles[replace_j < 0 ? m : replace_j] = cand[i];
-            st = eval_exact(c, w->handles, mm, 1, b, w, &v, &cut, &e);
+            st = eval_exact(c, w->handles, mm, 1, w, &v, &e);
         } else {
             if (replace_j < 0)
                 st = dtx_bbw_incr_weights_add(incr, cand[i], w->W, w->bw, &e);
@@ -274,22 +242,16 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             if (st == DTX_OK && dtx_bbw_clamp_normalise(w->W, c->nv, mm, NULL) < 0)
                 st = DTX_ESOLVE;
             if (st == DTX_OK)
-                st = eval_weights(c, mm, w->W, labels, k, b, w, &v, &cut, &e);
+                st = eval_weights(c, mm, w->W, labels, k, w, &v, &e);
         }
         if (st != DTX_OK) {
             v = INFINITY;
             fl++;
-        } else if (cut) {
-            ncut++;
-        } else {
-#pragma omp critical(dtx_kp_best)
-            best = v < best ? v : best;
         }
         errs[i] = v;
     }
     *evals += ev;
     *failed += fl;
-    *cut_short += ncut;
 }
 
 /* The smallest finite entry (lowest index on ties), or -1. */
@@ -339,8 +301,8 @@ static dtx_status score_round(const kp_ctx *c, const dtx_bbw_incr *incr, const i
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p,
-               res->error, errs, &res->evaluations, &res->failed, &res->cut_short);
+    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p, errs,
+               &res->evaluations, &res->failed);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
         return st;
@@ -358,7 +320,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     double *radius = NULL, *errs = NULL;
     unsigned char *inset = NULL;
     int32_t *cand = NULL, nfaced = 0, tcap = 0, mmax;
-    int nthreads, cut;
+    int nthreads;
     dtx_status st = DTX_OK;
     int reduce_failed = 0; /* the failure came from p->reduce: every part knows */
 
@@ -456,11 +418,10 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             goto fail;
         }
     if (c.exact)
-        st = eval_exact(&c, res->keys, res->count, nthreads, INFINITY, &ws[0], &res->error, &cut,
-                        err);
+        st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error, err);
     else if ((st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) == DTX_OK)
-        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, INFINITY, &ws[0],
-                          &res->error, &cut, err);
+        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, &ws[0], &res->error,
+                          err);
     if (st != DTX_OK)
         goto fail;
     res->error_first = res->error;
@@ -573,7 +534,6 @@ dtx_status dtx_keypoints_error(const dtx_mesh *src, int32_t nframes, const doubl
     kp_ctx c;
     kp_work w;
     dtx_status st;
-    int cut;
     memset(&c, 0, sizeof c);
     if (!src || !X || !keys || m < 1 || nframes < 1 || !skin)
         return dtx_seterr(err, DTX_EINVAL, "key points: missing mesh, frames or key points");
@@ -597,7 +557,7 @@ dtx_status dtx_keypoints_error(const dtx_mesh *src, int32_t nframes, const doubl
     else if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
                                         err)) == DTX_OK &&
              (st = dtx_skin_features(c.sm, nframes, X, &c.skin, c.feat, err)) == DTX_OK)
-        st = eval_exact(&c, keys, m, c.skin.threads, INFINITY, &w, error, &cut, err);
+        st = eval_exact(&c, keys, m, c.skin.threads, &w, error, err);
     work_free(&w);
     free(c.feat);
     dtx_skin_mesh_free(&c.sm);

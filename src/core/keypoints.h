@@ -55,12 +55,9 @@
  * candidate's error is computed by one thread in a fixed way, and the best
  * candidate is the smallest error with ties to the lowest candidate index,
  * so the selection is bitwise the same for any number of threads and parts.
- * An evaluation stops early once a lower bound of its error (the frames
- * fitted so far) shows it cannot be the round's winner nor beat the
- * current set; the winner is never stopped, so this changes nothing but
- * the time (and the count cut_short).  The final set's bounded weights
- * (final_error_exact, weights) are shared out over the parts by handle and
- * put together through reduce, bitwise as one part computes them.
+ * The final set's bounded weights (error_exact, weights) are shared out
+ * over the parts by handle and put together through reduce, bitwise as one
+ * part computes them.
  *
  * No printing; thread-safe (no shared state).
  */
@@ -76,8 +73,8 @@
 /* Combines the error arrays of all parts: on return err[0..n-1] holds, at
  * every part, the element-wise minimum over the parts.  (The selection
  * also gathers the final set's weight rows through it: then n is nv x m,
- * more than the candidates.)  Returns DTX_OK or
- * an error (with e filled), which stops the selection at every part.
+ * more than the candidates.)  Returns DTX_OK or an error (with e filled),
+ * which stops the selection at every part.
  *
  * Every part calls it at the same points, so that a part that fails on its
  * own (out of memory) cannot leave the others waiting: it then makes one
@@ -122,9 +119,6 @@ typedef struct {
     int sweeps;             /* stage-2 sweeps done */
     int64_t evaluations;    /* candidate sets evaluated by this part */
     int64_t failed;         /* evaluations that failed (singular fit): error +inf */
-    int64_t cut_short;      /* evaluations stopped once they could not win (their
-                               error's lower bound already above the round's
-                               best or the current error); depends on timing */
     double radius;          /* R, the error's length unit */
     double *weights;        /* the final set's bounded biharmonic weights on the
                                source (nv x count, as dtx_bbw gives them; owned),

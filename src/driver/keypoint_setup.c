@@ -300,9 +300,9 @@ int32_t dtx_keypoints_steps(const dtx_kp_result *res, double *steps)
 void dtx_keypoints_print_steps(FILE *f, const char *prefix, const dtx_kp_result *res, double eps)
 {
     int32_t adds = res->ntrace - res->replacements, first = res->count - adds;
-    fprintf(f, "%s%d key point%s from %d candidates (%lld evaluations here, %lld cut short)",
-            prefix, (int)res->count, res->count == 1 ? "" : "s", (int)res->ncand,
-            (long long)res->evaluations, (long long)res->cut_short);
+    fprintf(f, "%s%d key point%s from %d candidates (%lld evaluations here)", prefix,
+            (int)res->count, res->count == 1 ? "" : "s", (int)res->ncand,
+            (long long)res->evaluations);
     fprintf(f,
             "; error (mean vertex distance, in units of the source radius %.4g) after each "
             "step:\n",
