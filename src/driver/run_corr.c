@@ -65,6 +65,8 @@ static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s,
  * (and so their source weights, which the cache keeps with them). */
 static void selection_key(const run_state *r, const dtx_kp_params *kp, char out[17])
 {
+    /* The version names the selection and the bounded weights it keeps:
+     * change it with anything that changes their bits. */
     static const char tag[] = "dtx-keypoint-selection-v1";
     uint64_t h = DTX_HASH_INIT, hm = dtx_mesh_hash(&r->src);
     const dtx_skin_params *s = &kp->skin;
