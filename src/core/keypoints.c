@@ -171,6 +171,42 @@ static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m,
     return st;
 }
 
+/* The final set's bounded weights (into w->W), its own clustering and its
+ * error, as eval_exact computes them, with the handles' programmes shared
+ * out over the parts: part q solves handles [m q / P, m (q + 1) / P)
+ * (dtx_bbw_handles), the other rows are +INFINITY, and the parts' rows are
+ * put together by p->reduce (an element-wise minimum), so every part
+ * normalises the same rows (dtx_bbw_normalise) and gets dtx_bbw's bits. */
+static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m, int threads,
+                              const dtx_kp_params *p, kp_work *w, double *out, int *reduce_failed,
+                              dtx_error *e)
+{
+    int64_t n = (int64_t)c->nv * m;
+    int32_t k0, k1;
+    double *Wk;
+    dtx_status st;
+    if (p->part_count == 1 || n > INT32_MAX)
+        return eval_exact(c, handles, m, threads, w, out, e);
+    k0 = (int32_t)((int64_t)m * p->part_index / p->part_count);
+    k1 = (int32_t)((int64_t)m * (p->part_index + 1) / p->part_count);
+    Wk = dtx_alloc((size_t)n, sizeof *Wk, 0);
+    if (!Wk)
+        return dtx_seterr(e, DTX_ENOMEM, "out of memory");
+    for (int64_t i = 0; i < n; i++)
+        Wk[i] = INFINITY;
+    st = dtx_bbw_handles(c->src, handles, m, k0, k1, NULL, Wk + (size_t)k0 * c->nv, NULL, e);
+    if (st == DTX_OK && (st = p->reduce(p->reduce_ctx, Wk, (int32_t)n, 1, e)) != DTX_OK)
+        *reduce_failed = 1;
+    if (st == DTX_OK)
+        st = dtx_bbw_normalise(c->src, handles, m, Wk, NULL, w->W, NULL, e);
+    free(Wk);
+    if (st == DTX_OK)
+        st = cluster(c, m, w->W, m, threads, w->labels, e);
+    if (st == DTX_OK)
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
+    return st;
+}
+
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
  * == 0) that this part owns; +INFINITY elsewhere.  replace_j < 0: add the
  * candidate; else replace handle replace_j by it.  Fast mode: labels (nv)
@@ -408,12 +444,18 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     }
 
     /* Stage 2: replace each key point by a better candidate, sweep until
-     * nothing changes. */
-    for (int sweep = 0; sweep < p->max_sweeps; sweep++) {
+     * nothing changes.  A round depends only on the set and j, so when the
+     * last replacement was key last_j's in the previous sweep and nothing
+     * changed since, the rounds of keys after last_j would repeat that
+     * sweep's, which changed nothing: the sweep ends there, as it would
+     * have after them. */
+    for (int sweep = 0, last_j = -1; sweep < p->max_sweeps; sweep++) {
         int changed = 0;
         res->sweeps = sweep + 1;
         for (int32_t j = 0; j < res->count; j++) {
             int32_t b, old;
+            if (!changed && sweep > 0 && j > last_j)
+                break;
             if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, errs,
                                   res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
@@ -430,6 +472,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             res->error = errs[b];
             res->replacements++;
             changed = 1;
+            last_j = j;
             if ((st = push_trace(res, &tcap, errs[b], err)) != DTX_OK)
                 goto fail;
         }
@@ -441,8 +484,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if (c.exact)
         res->error_exact = res->error;
     else {
-        if ((st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error_exact,
-                             err)) != DTX_OK)
+        if ((st = final_exact(&c, res->keys, res->count, nthreads, p, &ws[0], &res->error_exact,
+                              &reduce_failed, err)) != DTX_OK)
             goto fail;
         res->weights = dtx_alloc((size_t)c.nv, (size_t)res->count * sizeof *res->weights, 0);
         if (!res->weights) {

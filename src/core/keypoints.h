@@ -55,6 +55,9 @@
  * candidate's error is computed by one thread in a fixed way, and the best
  * candidate is the smallest error with ties to the lowest candidate index,
  * so the selection is bitwise the same for any number of threads and parts.
+ * The final set's bounded weights (error_exact, weights) are shared out
+ * over the parts by handle and put together through reduce, bitwise as one
+ * part computes them.
  *
  * No printing; thread-safe (no shared state).
  */
@@ -68,8 +71,10 @@
 #include <stdint.h>
 
 /* Combines the error arrays of all parts: on return err[0..n-1] holds, at
- * every part, the element-wise minimum over the parts.  Returns DTX_OK or
- * an error (with e filled), which stops the selection at every part.
+ * every part, the element-wise minimum over the parts.  (The selection
+ * also gathers the final set's weight rows through it: then n is nv x m,
+ * more than the candidates.)  Returns DTX_OK or an error (with e filled),
+ * which stops the selection at every part.
  *
  * Every part calls it at the same points, so that a part that fails on its
  * own (out of memory) cannot leave the others waiting: it then makes one

@@ -137,7 +137,7 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
         /* 3b. Key points; 4. correspondences and each target's key points. */
         if ((st = run_select_keypoints(&r, err)) != DTX_OK ||
             (st = run_correspondences(&r, err)) != DTX_OK ||
-            (st = run_target_keys(&r, err)) != DTX_OK)
+            (st = run_target_keys(&r, err)) != DTX_OK || (st = run_bh_weights(&r, err)) != DTX_OK)
             goto fail;
         /* 5. The output, created or reopened, and the frames still to do. */
         out_started = 1;

@@ -61,9 +61,67 @@ static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s,
 /* 3b. Key points (method biharmonic)                                  */
 /* ------------------------------------------------------------------ */
 
+/* The cache key of a selection: everything that determines the key points
+ * (and so their source weights, which the cache keeps with them). */
+static void selection_key(const run_state *r, const dtx_kp_params *kp, char out[17])
+{
+    /* The version names the selection and the bounded weights it keeps:
+     * change it with anything that changes their bits. */
+    static const char tag[] = "dtx-keypoint-selection-v1";
+    uint64_t h = DTX_HASH_INIT, hm = dtx_mesh_hash(&r->src);
+    const dtx_skin_params *s = &kp->skin;
+    h = dtx_hash_bytes(h, tag, sizeof tag);
+    h = dtx_hash_bytes(h, &hm, sizeof hm);
+    h = dtx_hash_bytes(h, &r->ntrain, sizeof r->ntrain);
+    h = dtx_hash_bytes(h, r->Xtrain, (size_t)r->ntrain * 3 * (size_t)r->src.nv * sizeof *r->Xtrain);
+    h = dtx_hash_bytes(h, &kp->candidates, sizeof kp->candidates);
+    h = dtx_hash_bytes(h, &kp->eps, sizeof kp->eps);
+    h = dtx_hash_bytes(h, &kp->max_keys, sizeof kp->max_keys);
+    h = dtx_hash_bytes(h, &kp->max_sweeps, sizeof kp->max_sweeps);
+    h = dtx_hash_bytes(h, &kp->exact, sizeof kp->exact);
+    h = dtx_hash_bytes(h, &s->lambda, sizeof s->lambda);
+    h = dtx_hash_bytes(h, &s->nclusters, sizeof s->nclusters);
+    h = dtx_hash_bytes(h, &s->gamma_logr, sizeof s->gamma_logr);
+    h = dtx_hash_bytes(h, &s->gamma_s, sizeof s->gamma_s);
+    h = dtx_hash_bytes(h, &s->kmeans_iters, sizeof s->kmeans_iters);
+    h = dtx_hash_bytes(h, &s->kmeans_seed, sizeof s->kmeans_seed);
+    h = dtx_hash_bytes(h, &s->max_iters, sizeof s->max_iters);
+    h = dtx_hash_bytes(h, &s->tol, sizeof s->tol);
+    dtx_hash_hex(h, out);
+}
+
+/* A selection found in the cache: the key points are the handles of the
+ * source weights stored under the selection's key (run_weights.c). */
+static dtx_status cached_selection(run_state *r, int *found, dtx_error *err)
+{
+    int32_t m = 0, *keys = NULL;
+    double *W = NULL;
+    dtx_status st = run_weights_fetch(r, r->kp_key, r->src.nv, &m, NULL, &keys, &W, found, err);
+    if (st != DTX_OK || !*found)
+        return st;
+    /* Distinct vertices of the source (the read checked the range). */
+    for (int32_t i = 0; i < m && *found; i++)
+        for (int32_t j = 0; j < i && *found; j++)
+            *found = keys[i] != keys[j];
+    if (!*found) {
+        free(keys);
+        free(W);
+        return DTX_OK;
+    }
+    memset(&r->kp, 0, sizeof r->kp);
+    r->kp.count = m;
+    r->kp.keys = keys;
+    r->kp.weights = W;
+    r->kp_cached = 1;
+    return DTX_OK;
+}
+
 /* Every rank reads the training frames (the clustering features of the
  * fit); with keypoints "auto" the ranks then select the key points on them
- * together, each evaluating its share of the candidates. */
+ * together, each evaluating its share of the candidates, unless the
+ * partial or the old output holds the selection for the same inputs (the
+ * source mesh, the training frames, the parameters): then the key points
+ * and their source weights are read from there. */
 dtx_status run_select_keypoints(run_state *r, dtx_error *err)
 {
     double t0 = run_wtime();
@@ -99,6 +157,20 @@ dtx_status run_select_keypoints(run_state *r, dtx_error *err)
     kp.skin.lambda = bh->transfer.skin.lambda;
     kp.skin.gamma_logr = bh->transfer.skin.gamma_logr;
     kp.skin.gamma_s = bh->transfer.skin.gamma_s;
+    selection_key(r, &kp, r->kp_key);
+    {
+        int found = 0;
+        if ((st = cached_selection(r, &found, err)) != DTX_OK)
+            return st;
+        if (found) {
+            r->tm.keypoints += run_wtime() - t0;
+            run_say(r,
+                    "dtx: %d key points on %s:%s and their weights reused from the output's "
+                    "cache (same source, training frames and parameters)",
+                    (int)r->kp.count, r->job.source_file, r->job.source_mesh);
+            return DTX_OK;
+        }
+    }
     run_say(r,
             "dtx: selecting key points on %s:%s from %d training frames (%d candidates, %d "
             "rank(s) x %d thread(s))",

@@ -256,12 +256,8 @@ static dtx_status target_plan(run_state *r, const target_ctx *tc, void **plan, d
     in.nkeys = tc->keys.n;
     in.ntrain = r->ntrain;
     in.Xtrain = r->Xtrain;
-    if (r->method->uses_keypoints &&
-        (st = run_bh_weights(r, tc, &in.src_weights, &in.tgt_weights, err)) != DTX_OK) {
-        free(pin_idx);
-        free(pin_pos);
-        return st;
-    }
+    in.src_weights = tc->Ws;
+    in.tgt_weights = tc->Wt;
     in.anchor =
         tj->translation == DTX_TRANSLATION_FOLLOW
             ? DTX_ANCHOR_FOLLOW

@@ -77,6 +77,12 @@ typedef struct {
      * target vertex) as a marker set, stored in the output at kp_path */
     dtx_markers keys;
     char kp_path[DTX_H5_PATH_MAX];
+    /* and their bounded biharmonic weights (run_weights.c), nv x m on the
+     * source and on the target, owned, with their cache keys and whether
+     * they came from a cache file */
+    double *Ws, *Wt;
+    char ws_key[17], wt_key[17];
+    int ws_cached, wt_cached;
     dtx_weld_ctx weld; /* the asset's vertices (mesh is welded along seams) */
 } target_ctx;
 
@@ -126,10 +132,8 @@ typedef struct {
     int32_t ntrain;
     double *Xtrain;
     dtx_kp_result kp;
-    /* and the bounded biharmonic weights (run_weights.c): the source's for
-     * the key points bh_src_keys (bh_src_m of them), the current target's */
-    double *bh_Ws, *bh_Wt;
-    int32_t *bh_src_keys, bh_src_m;
+    char kp_key[17]; /* cache key of the selection (keypoints "auto") */
+    int kp_cached;   /* the key points and their weights came from a cache */
     int64_t frames_todo, frames_skipped, frames_done; /* global, known on rank 0 */
     dtx_progress prog;
 } run_state;
@@ -187,13 +191,27 @@ dtx_status run_select_keypoints(run_state *r, dtx_error *err);
 dtx_status run_correspondences(run_state *r, dtx_error *err);
 dtx_status run_target_keys(run_state *r, dtx_error *err);
 
-/* run_weights.c: method biharmonic's bounded biharmonic weights of a
- * target's key points on the source (*Ws) and on the target (*Wt), both
- * nv x m and owned by r (valid until the next call or the end of the run):
- * the handles shared out over the ranks, the source's reused when they are
- * the selection's or the previous target's.  Collective. */
-dtx_status run_bh_weights(run_state *r, const target_ctx *tc, const double **Ws,
-                          const double **Wt, dtx_error *err);
+/* run_weights.c: method biharmonic's bounded biharmonic weights of each
+ * target's key points on the source (tc->Ws) and on the target (tc->Wt),
+ * once per run before the output is created: found by key in the partial
+ * or the old output (as correspondences are), taken from the key-point
+ * selection or an earlier target, or computed with the handles shared out
+ * over the ranks.  Collective. */
+dtx_status run_bh_weights(run_state *r, dtx_error *err);
+/* The cache key of weights of handles (m) on a mesh. */
+void run_weights_key(const dtx_mesh *mesh, const int32_t *handles, int32_t m, char out[17]);
+/* The weights with this key in OUTPUT.partial or OUTPUT (rank 0 reads,
+ * every rank receives): when a group there has the key, nv rows, *m
+ * handles (any number when *m <= 0; set) equal to handles (when not
+ * NULL), *found = 1 and *found_handles (*m) and *W (nv x *m) are
+ * allocated; else *found = 0.  A group that does not read back cleanly
+ * counts as missing.  Collective. */
+dtx_status run_weights_fetch(run_state *r, const char *key, int32_t nv, int32_t *m,
+                             const int32_t *handles, int32_t **found_handles, double **W,
+                             int *found, dtx_error *err);
+/* Rank 0, creating the partial: writes each target's weights as
+ * /weights/TARGET-source and /weights/TARGET-target. */
+dtx_status run_weights_write(run_state *r, hid_t f, dtx_error *err);
 void run_bh_weights_free(run_state *r);
 
 /* run_frames.c: the frame loop (phase 6). */

@@ -314,7 +314,8 @@ void run_choose_mode(run_state *r)
 /* Rank 0: the new output file, created serially under the temporary name
  * OUTPUT.partial.new with its mark (and, for a method with key points,
  * each target's key points as the marker set /markers/TARGET-keypoints:
- * variable-length labels, which parallel HDF5 cannot write), closed, then
+ * variable-length labels, which parallel HDF5 cannot write; and their
+ * weights, /weights/TARGET-source and -target, a cache), closed, then
  * renamed to OUTPUT.partial.  So an OUTPUT.partial always carries the mark,
  * however early a run is killed; a kill before the rename leaves only
  * OUTPUT.partial.new, which the next run that creates a partial removes. */
@@ -329,6 +330,8 @@ static dtx_status create_marked_partial(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt && st == DTX_OK && r->method->uses_keypoints; t++)
         st = dtx_h5_write_markers(f, r->tg[t].kp_path, &r->tg[t].keys, srcdesc,
                                   r->tg[t].mesh_path, err);
+    if (st == DTX_OK && r->method->uses_keypoints)
+        st = run_weights_write(r, f, err);
     if (f >= 0) {
         dtx_error e2;
         if (dtx_h5_close(&f, &e2) != DTX_OK && st == DTX_OK) {

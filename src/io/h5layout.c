@@ -2440,22 +2440,24 @@ dtx_status dtx_h5_list_groups(hid_t file, const char *path, char ***names, int64
     return DTX_OK;
 }
 
-dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out,
-                                   dtx_error *err)
+/* The first group parent/<name> (temporaries skipped) whose attribute key
+ * equals key: *group_out a malloc'ed path, or NULL. */
+static dtx_status find_by_key(hid_t file, const char *parent, const char *key, char **group_out,
+                              dtx_error *err)
 {
     dtx_h5_names l;
     char path[DTX_H5_PATH_MAX];
     dtx_status st = DTX_OK;
     *group_out = NULL;
-    if (object_type(file, "/correspondences") != H5O_TYPE_GROUP)
+    if (object_type(file, parent) != H5O_TYPE_GROUP)
         return DTX_OK;
-    if (dtx_h5_list_names(file, "/correspondences", &l) < 0)
-        return l.oom ? ferr(err, DTX_ENOMEM, file, "/correspondences", "out of memory")
-                     : h5err(err, file, "/correspondences", "cannot list the group");
+    if (dtx_h5_list_names(file, parent, &l) < 0)
+        return l.oom ? ferr(err, DTX_ENOMEM, file, parent, "out of memory")
+                     : h5err(err, file, parent, "cannot list the group");
     for (size_t i = 0; i < l.n && !*group_out; i++) {
         char *k = NULL;
         if (strncmp(l.names[i], DTX_H5_TMP_PREFIX, strlen(DTX_H5_TMP_PREFIX)) == 0 ||
-            join_path("/correspondences", l.names[i], path, sizeof path) ||
+            join_path(parent, l.names[i], path, sizeof path) ||
             object_type(file, path) != H5O_TYPE_GROUP ||
             H5Aexists_by_name(file, path, "key", H5P_DEFAULT) <= 0)
             continue;
@@ -2468,6 +2470,131 @@ dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out
 done:
     dtx_h5_names_free(&l);
     return st;
+}
+
+dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out,
+                                   dtx_error *err)
+{
+    return find_by_key(file, "/correspondences", key, group_out, err);
+}
+
+/* ================================================================ weights */
+
+dtx_status dtx_h5_write_weights(hid_t file, const char *group, const int32_t *handles, int32_t m,
+                                const double *weights, int32_t nv, const char *key,
+                                const char *mesh, dtx_error *err)
+{
+    char tmp[DTX_H5_PATH_MAX];
+    hid_t g = H5I_INVALID_HID;
+    hsize_t hd[1] = {(hsize_t)m}, wd[2] = {(hsize_t)nv, (hsize_t)m};
+    dtx_status st;
+    if (m < 1 || nv < 1 || !handles || !weights)
+        return ferr(err, DTX_EINVAL, file, group, "bad sizes: %d handles, %d vertices", (int)m,
+                    (int)nv);
+    if ((st = begin_group(file, group, 0, tmp, &g, err)) != DTX_OK)
+        goto done;
+    if ((st = create_write(g, "handles", H5T_STD_I32LE, H5T_NATIVE_INT32, 1, hd, H5P_DEFAULT,
+                           handles, err)) != DTX_OK ||
+        (st = create_write(g, "weights", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, wd, H5P_DEFAULT,
+                           weights, err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "key", key ? key : "", err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "mesh", mesh ? mesh : "", err)) != DTX_OK ||
+        (st = dtx_h5_write_attr_str(g, ".", "dtx_version", DTX_VERSION, err)) != DTX_OK)
+        goto done;
+    CLOSE_ID(H5Gclose, g);
+    st = dtx_h5_commit_group(file, tmp, group, 0, err);
+done:
+    CLOSE_ID(H5Gclose, g);
+    return st;
+}
+
+void dtx_h5_weights_free(dtx_h5_weights *w)
+{
+    if (!w)
+        return;
+    free(w->handles);
+    free(w->weights);
+    free(w->key);
+    free(w->mesh);
+    free(w->dtx_version);
+    memset(w, 0, sizeof *w);
+}
+
+dtx_status dtx_h5_read_weights(hid_t file, const char *group, int32_t nv, dtx_h5_weights *w,
+                               dtx_error *err)
+{
+    static const hsize_t want_h[1] = {0}, want_w[2] = {0, 0};
+    char hpath[DTX_H5_PATH_MAX], wpath[DTX_H5_PATH_MAX];
+    hid_t hd = H5I_INVALID_HID, wd = H5I_INVALID_HID;
+    hsize_t hdims[1] = {0}, wdims[2] = {0, 0};
+    dtx_status st;
+    memset(w, 0, sizeof *w);
+    if (object_type(file, group) != H5O_TYPE_GROUP)
+        return ferr(err, DTX_EFORMAT, file, group, "missing (no such weight group)");
+    if (join_path(group, "handles", hpath, sizeof hpath) ||
+        join_path(group, "weights", wpath, sizeof wpath))
+        return ferr(err, DTX_EINVAL, file, group, "path too long");
+    if ((st = open_checked(file, hpath, H5T_INTEGER, 1, want_h, "m", &hd, hdims, err)) !=
+            DTX_OK ||
+        (st = open_checked(file, wpath, H5T_FLOAT, 2, want_w, "nv x m", &wd, wdims, err)) !=
+            DTX_OK)
+        goto fail;
+    if (hdims[0] < 1 || hdims[0] > INT32_MAX) {
+        st = ferr(err, DTX_EFORMAT, file, hpath, "has %llu entries (at least 1 handle needed)",
+                  (unsigned long long)hdims[0]);
+        goto fail;
+    }
+    if (wdims[1] != hdims[0] || wdims[0] > INT32_MAX || (nv >= 0 && wdims[0] != (hsize_t)nv)) {
+        if (nv >= 0)
+            st = ferr(err, DTX_EFORMAT, file, wpath,
+                      "is %llu x %llu, expected %d x %llu (the mesh's vertices x the handles)",
+                      (unsigned long long)wdims[0], (unsigned long long)wdims[1], (int)nv,
+                      (unsigned long long)hdims[0]);
+        else
+            st = ferr(err, DTX_EFORMAT, file, wpath,
+                      "is %llu x %llu, expected one column per handle (%llu)",
+                      (unsigned long long)wdims[0], (unsigned long long)wdims[1],
+                      (unsigned long long)hdims[0]);
+        goto fail;
+    }
+    if ((st = read_whole(file, hd, hpath, hdims, 1, H5T_NATIVE_INT32, sizeof(int32_t),
+                         (void **)&w->handles, err)) != DTX_OK ||
+        (st = read_whole(file, wd, wpath, wdims, 2, H5T_NATIVE_DOUBLE, sizeof(double),
+                         (void **)&w->weights, err)) != DTX_OK)
+        goto fail;
+    w->m = (int32_t)hdims[0];
+    w->nv = (int32_t)wdims[0];
+    for (int32_t k = 0; k < w->m; k++)
+        if (w->handles[k] < 0 || w->handles[k] >= w->nv) {
+            st = ferr(err, DTX_ERANGE, file, hpath, "handle %d is vertex %d, out of range [0, %d)",
+                      (int)k, (int)w->handles[k], (int)w->nv);
+            goto fail;
+        }
+    for (int64_t i = 0; i < (int64_t)w->nv * w->m; i++)
+        if (!(w->weights[i] >= 0.0 && w->weights[i] <= 1.0)) {
+            st = ferr(err, DTX_ERANGE, file, wpath,
+                      "vertex %lld, handle %lld: weight %g is not in [0, 1]",
+                      (long long)(i / w->m), (long long)(i % w->m), w->weights[i]);
+            goto fail;
+        }
+    if ((st = dtx_h5_read_attr_str(file, group, "key", &w->key, err)) != DTX_OK ||
+        (st = dtx_h5_read_attr_str(file, group, "mesh", &w->mesh, err)) != DTX_OK ||
+        (st = dtx_h5_read_attr_str(file, group, "dtx_version", &w->dtx_version, err)) != DTX_OK)
+        goto fail;
+    CLOSE_ID(H5Dclose, wd);
+    CLOSE_ID(H5Dclose, hd);
+    return DTX_OK;
+fail:
+    CLOSE_ID(H5Dclose, wd);
+    CLOSE_ID(H5Dclose, hd);
+    dtx_h5_weights_free(w);
+    return st;
+}
+
+dtx_status dtx_h5_find_weights_by_key(hid_t file, const char *key, char **group_out,
+                                      dtx_error *err)
+{
+    return find_by_key(file, "/weights", key, group_out, err);
 }
 
 /* ================================================================ results */

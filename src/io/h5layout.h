@@ -12,6 +12,7 @@
  *   /keypoints/<name>        vertex i32 n, position f64 n x 3, label str n,
  *                            error f64 S (selected key points of a source)
  *   /correspondences/<name>  pairs i32 P x 2, deformed_source f64 nv_s x 3
+ *   /weights/<name>          handles i32 m, weights f64 nv x m (a cache)
  *   /results/<name>          positions T x nv x 3, residual f64 T,
  *                            frame_done u8 T, link target -> mesh
  *
@@ -417,6 +418,39 @@ void dtx_h5_corr_free(dtx_h5_corr *c);
  * none matches or the file has no /correspondences. */
 dtx_status dtx_h5_find_corr_by_key(hid_t file, const char *key, char **group_out,
                                    dtx_error *err);
+
+/* -------------------------------------------------------- weights (cache) */
+
+/* Skinning weights of handles on a mesh (method biharmonic's bounded
+ * biharmonic weights), cached like correspondences: found again by key. */
+typedef struct {
+    int32_t m;        /* handles, >= 1 */
+    int32_t *handles; /* m vertices of the mesh */
+    int32_t nv;
+    double *weights;  /* nv x m, row-major: weights[i * m + k] */
+    char *key, *mesh, *dtx_version;
+} dtx_h5_weights;
+
+/* Writes handles (m int32) and weights (nv x m doubles) and the attributes
+ * key (hex hash of what determines them, computed by the caller), mesh
+ * (HDF5 path of the mesh in this file, or text) and dtx_version.  Fails if
+ * group exists.  Collective in parallel. */
+dtx_status dtx_h5_write_weights(hid_t file, const char *group, const int32_t *handles, int32_t m,
+                                const double *weights, int32_t nv, const char *key,
+                                const char *mesh, dtx_error *err);
+
+/* Reads a weight group into *w (zeroed on failure).  Checks the shapes
+ * (handles m >= 1, weights nv x m, with nv the given count when >= 0),
+ * handles in [0, nv) and every weight finite and in [0, 1]. */
+dtx_status dtx_h5_read_weights(hid_t file, const char *group, int32_t nv, dtx_h5_weights *w,
+                               dtx_error *err);
+
+/* Frees everything *w owns and zeroes it.  Accepts NULL. */
+void dtx_h5_weights_free(dtx_h5_weights *w);
+
+/* As dtx_h5_find_corr_by_key, over the groups /weights/<name>. */
+dtx_status dtx_h5_find_weights_by_key(hid_t file, const char *key, char **group_out,
+                                      dtx_error *err);
 
 /* ---------------------------------------------------------------- results */
 

@@ -65,7 +65,7 @@ static int same(const dtx_kp_result *a, const dtx_kp_result *b)
  * both take the element-wise minimum. */
 typedef struct {
     double *slot[2];
-    int32_t n;
+    int32_t n, cap[2]; /* slot sizes: the final weights are nv x m, more than n */
     int ok[2], calls[2];
 } two_parts;
 
@@ -80,6 +80,14 @@ static dtx_status reduce_two(void *ctx, double *errs, int32_t n, int local_ok, d
 #pragma omp barrier
     if (!ok)
         return dtx_seterr(e, DTX_EMPI, "another part failed");
+    if (n > tp->cap[me]) {
+        double *g = realloc(tp->slot[me], (size_t)n * sizeof *g);
+        CHECK(g != NULL);
+        if (!g)
+            abort();
+        tp->slot[me] = g;
+        tp->cap[me] = n;
+    }
     if (n > 0)
         memcpy(tp->slot[me], errs, (size_t)n * sizeof *errs);
 #pragma omp barrier
@@ -121,6 +129,7 @@ static void run_all(const char *what, const dtx_mesh *m, int32_t nframes, const 
 
     /* Two parts. */
     tp.n = nc;
+    tp.cap[0] = tp.cap[1] = nc;
     tp.slot[0] = calloc((size_t)nc, sizeof(double));
     tp.slot[1] = calloc((size_t)nc, sizeof(double));
 #pragma omp parallel num_threads(2)
@@ -214,6 +223,7 @@ static void test_part_failure(const dtx_mesh *m, int32_t nframes, const double *
         }
     memset(&tp, 0, sizeof tp);
     tp.n = nc;
+    tp.cap[0] = tp.cap[1] = nc;
     tp.slot[0] = calloc((size_t)nc, sizeof(double));
     tp.slot[1] = calloc((size_t)nc, sizeof(double));
 #pragma omp parallel num_threads(2)

@@ -6,6 +6,9 @@
 #    3 training frames) at 2 ranks x 1 thread (the selection split over
 #    them) and 1 rank x 2 threads (over a copy of the first output, whose
 #    cached sp04 correspondence it reuses; not in the sanitizer pass);
+#  - the weights cache: the 2-rank job again over its own output reads the
+#    key points and both meshes' weights from it (same bits), and a job with
+#    other training frames selects again (not in the sanitizer pass);
 # every result validates, equals the others to 1e-12 relative (`dtx diff`),
 # names its method, and the output holds the key points as the marker set
 # /markers/lion-keypoints (the same set at every rank and thread count),
@@ -80,11 +83,14 @@ t0=$(date +%s)
 OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np 2 "$DTX" run au2.json 2> au2.log
 t1=$(date +%s)
 # The same job at 1 rank x 2 threads, over a copy of the first output (not
-# --resume): the correspondence comes from the old output's cache, the key
-# points are selected again, and the result equals the 2-rank one.  The
-# sanitizer pass runs the 2-rank job only (the selection split over the
-# ranks, the weights shared out); there au1.h5 is that result.
+# --resume) without its cached weights: the correspondence comes from the
+# old output's cache, the key points are selected again, and the result
+# equals the 2-rank one.  The sanitizer pass runs the 2-rank job only (the
+# selection split over the ranks, the weights shared out); there au1.h5 is
+# that result.
 cp au2.h5 au1.h5
+cp au2.h5 au2-first.h5
+"$DTX" rm au1.h5 /weights/lion-source /weights/lion-target > /dev/null
 if [ "${DTX_SANITIZED:-0}" != 1 ]; then
     OMP_NUM_THREADS=2 "${MPIRUN[@]}" -np 1 "$DTX" run au1.json 2> au1.log
 fi
@@ -93,6 +99,7 @@ echo "auto: 2 ranks x 1 thread $((t1 - t0)) s, 1 rank x 2 threads (correspondenc
 if [ "${DTX_SANITIZED:-0}" != 1 ]; then
     check "auto: 2 ranks x 1 thread == 1 rank x 2 threads (1e-12)" "$DTX" diff au2.h5 au1.h5 $R --tol 1e-12
     check "auto: second run reuses the correspondence" grep -q '"lion": "reused"' au1.h5.summary.json
+    check "auto: second run selects the key points again" grep -q 'key points selected' au1.log
 fi
 check "auto: result validates" "$DTX" validate au2.h5
 check "auto: provenance names the method" \
@@ -110,6 +117,34 @@ check "auto: labels name nearby markers" grep -q 'key [0-9]* near ' <(kpset au1.
 check "auto: the correspondence is stored" \
     bash -c "h5dump -H -g /correspondences/lion au1.h5 > /dev/null"
 check "auto: training frames and selection reported" grep -q 'from 3 training frames (20 candidates, 2 rank' au2.log
+check "auto: the first run computes the target weights" \
+    grep -q 'source from the key-point selection, target computed' au2.log
+check "auto: the output caches both meshes' weights" \
+    bash -c "h5dump -H -d /weights/lion-source/weights -d /weights/lion-target/weights au2.h5 | grep -c DATASPACE | grep -qx 2"
+
+# The weights cache: the same job again over its own output selects no key
+# points and solves no weights (both come from the output, keyed by the
+# source, training frames and parameters, and by each mesh and its key
+# points), with the same result bit for bit.
+OMP_NUM_THREADS=1 "${MPIRUN[@]}" -np 2 "$DTX" run au2.json 2> au2-again.log
+check "cache: the re-run takes the key points from the output" \
+    grep -q 'key points on .*in.h5:/meshes/cat and their weights reused from the output' au2-again.log
+check "cache: the re-run selects no key points" bash -c "! grep -q 'key points selected' au2-again.log"
+check "cache: the re-run solves no weights" grep -q \
+    "source reused from the output's cache with the key points, target reused from the output's cache" \
+    au2-again.log
+check "cache: the re-run's result is the same bits" "$DTX" diff au2-first.h5 au2.h5 $R --tol 0
+# A changed input is a different key: with one training frame fewer the
+# key points are selected again (and their weights solved) over the same
+# old output.
+if [ "${DTX_SANITIZED:-0}" != 1 ]; then
+    job au3 '{"keypoints": "auto", "candidates": 20, "max_keypoints": 6, "training_frames": 2}'
+    cp au2.h5 au3.h5
+    OMP_NUM_THREADS=2 "$DTX" run au3.json 2> au3.log
+    check "cache: other training frames select again" grep -q 'key points selected' au3.log
+    check "cache: other training frames solve the weights again" \
+        grep -q 'source from the key-point selection' au3.log
+fi
 
 # The stored key points, used by a later job as its markers (with the same
 # training frames): the same plan, the same result.

@@ -66,15 +66,15 @@ static void test_description(void)
     cJSON_ArrayForEach(k, kinds)
     {
         const char *name = cJSON_GetObjectItemCaseSensitive(k, "name")->valuestring;
-        static const char *const order[] = {"meshes",    "sequences",       "markers",
-                                            "keypoints", "correspondences", "results"};
-        CHECK(nkinds < 6 && strcmp(name, order[nkinds]) == 0);
+        static const char *const order[] = {"meshes",          "sequences", "markers", "keypoints",
+                                            "correspondences", "weights",   "results"};
+        CHECK(nkinds < 7 && strcmp(name, order[nkinds]) == 0);
         CHECK(cJSON_IsObject(cJSON_GetObjectItemCaseSensitive(k, "datasets")));
         CHECK(cJSON_IsObject(cJSON_GetObjectItemCaseSensitive(k, "attributes")));
         CHECK(cJSON_IsArray(cJSON_GetObjectItemCaseSensitive(k, "checks")));
         nkinds++;
     }
-    CHECK_EQ_INT(nkinds, 6);
+    CHECK_EQ_INT(nkinds, 7);
     cJSON_Delete(j);
     free(text);
     free(file);
