@@ -93,6 +93,29 @@ static void release(run_state *r)
     dtx_job_free(&r->job);
 }
 
+/* --correspond-only: phases 2 and 4 alone, into the store; the output
+ * and its lock are not touched. */
+static dtx_status correspond_only(run_state *r, dtx_error *err)
+{
+    dtx_status st;
+    const char *dir = run_store_dir(r);
+    int n = 0;
+    if (!dir)
+        return dtx_seterr(err, DTX_EJOB,
+                          "%s: --correspond-only needs a correspondence store (--store DIR or "
+                          "the job's correspondence_store)",
+                          r->job.job_path ? r->job.job_path : "job");
+    if ((st = run_read_inputs(r, err)) != DTX_OK || (st = run_correspondences(r, err)) != DTX_OK)
+        return st;
+    for (int t = 0; t < r->nt; t++)
+        n += !r->tg[t].same_conn && r->tg[t].reused != RUN_CORR_STORE;
+    if (!run_uses_correspondence(r))
+        run_say(r, "dtx: the job's method needs no correspondence: nothing stored");
+    else
+        run_say(r, "dtx: correspondences in store %s: %d of %d target(s) written", dir, n, r->nt);
+    return DTX_OK;
+}
+
 dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *opts,
                        dtx_error *err)
 {
@@ -126,6 +149,11 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
     dtx_job_transfer_params(&r.job, &r.prm);
     r.method = dtx_transfer_method_of(r.prm.kind);
     r.align = r.method->solve_group;
+    if (opts->correspond_only) {
+        st = correspond_only(&r, err);
+        release(&r);
+        return st;
+    }
     if ((st = run_take_output(&r, err)) != DTX_OK)
         goto fail;
     /* 2. The inputs. */

@@ -287,13 +287,14 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
+    run_store_lookup(r, reused);
     MPI_Bcast(reused, r->nt, MPI_INT, 0, r->comm);
     assign_owners(r, reused);
     corr_params_from_job(&r->job, &prm);
     st = run_injected_fault(r, "correspondence", err);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
-        tc->reused = reused[t] == 1;
+        tc->reused = reused[t] == 2 ? RUN_CORR_COMPUTED : reused[t];
         ncomputed += !reused[t];
         if (reused[t] || tc->owner != r->rank)
             continue;
@@ -325,10 +326,12 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         else
             run_say(r, "dtx: target %s: correspondence %s: %lld triangle pairs%s",
                     r->tg[t].tj->name,
-                    r->tg[t].reused ? "reused from the output's cache" : "computed",
+                    r->tg[t].reused == RUN_CORR_STORE    ? "taken from the store"
+                    : r->tg[t].reused == RUN_CORR_CACHED ? "reused from the output's cache"
+                                                         : "computed",
                     (long long)r->tg[t].corr.npairs, use);
     if (ncomputed > 1 && r->nranks > 1)
         run_say(r, "dtx: %d correspondences computed on %d ranks in %.2f s", ncomputed,
                 ncomputed < r->nranks ? ncomputed : r->nranks, r->tm.correspond);
-    return DTX_OK;
+    return run_store_save(r, err);
 }
