@@ -112,7 +112,7 @@ static dtx_status correspond_only(run_state *r, dtx_error *err)
     if (!run_uses_correspondence(r))
         run_say(r, "dtx: the job's method needs no correspondence: nothing stored");
     else
-        run_say(r, "dtx: correspondences in store %s: %d of %d target(s) written", dir, n, r->nt);
+        run_say(r, "dtx: correspondence store %s: %d of %d target(s) written", dir, n, r->nt);
     return DTX_OK;
 }
 

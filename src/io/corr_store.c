@@ -26,6 +26,22 @@ static int is_key(const char *key)
     return 1;
 }
 
+/* The hash of a correspondence's arrays (their bytes as in memory): the
+ * store's check that what it reads back is what was written. */
+static void content_hash(const int32_t *pairs, int64_t npairs, const double *def, int32_t nv_s,
+                         char out[17])
+{
+    static const char tag[] = "dtx-corr-store-content-v1";
+    uint64_t h = dtx_hash_bytes(DTX_HASH_INIT, tag, sizeof tag);
+    h = dtx_hash_bytes(h, &npairs, sizeof npairs);
+    h = dtx_hash_bytes(h, pairs, (size_t)npairs * 2 * sizeof *pairs);
+    if (def) {
+        h = dtx_hash_bytes(h, &nv_s, sizeof nv_s);
+        h = dtx_hash_bytes(h, def, (size_t)nv_s * 3 * sizeof *def);
+    }
+    dtx_hash_hex(h, out);
+}
+
 dtx_status dtx_corr_store_path(const char *dir, const char *key, char *out, size_t n,
                                dtx_error *err)
 {
@@ -43,7 +59,7 @@ dtx_status dtx_corr_store_read(const char *dir, const char *key, int32_t src_nv,
                                int32_t tgt_nf, int need_deformed, dtx_h5_corr *c, int *found,
                                dtx_error *err)
 {
-    char path[4400], group[DTX_H5_PATH_MAX];
+    char path[4400], group[DTX_H5_PATH_MAX], hash[17], *stored = NULL;
     hid_t f = H5I_INVALID_HID;
     struct stat sb;
     dtx_status st;
@@ -63,10 +79,20 @@ dtx_status dtx_corr_store_read(const char *dir, const char *key, int32_t src_nv,
     if ((st = dtx_h5_open(path, MPI_COMM_NULL, 0, &f, err)) != DTX_OK)
         return st;
     st = dtx_h5_read_corr(f, group, src_nv, src_nf, tgt_nf, c, err);
+    if (st == DTX_OK)
+        st = dtx_h5_read_attr_str(f, group, "content_hash", &stored, err);
     dtx_h5_close(&f, NULL);
-    if (st != DTX_OK)
+    if (st != DTX_OK) {
+        dtx_h5_corr_free(c);
         return st;
-    if (!c->key || strcmp(c->key, key) != 0)
+    }
+    content_hash(c->pairs, c->npairs, c->deformed_src, c->nv_s, hash);
+    if (strcmp(stored, hash) != 0)
+        st = dtx_seterr(err, DTX_EFORMAT,
+                        "%s: %s: its arrays do not match their content_hash %s (found %s): "
+                        "the file is damaged",
+                        path, group, stored, hash);
+    else if (!c->key || strcmp(c->key, key) != 0)
         st = dtx_seterr(err, DTX_EFORMAT, "%s: %s: attribute key is \"%s\", not the file's %s",
                         path, group, c->key ? c->key : "", key);
     else if (need_deformed && !c->deformed_src)
@@ -78,6 +104,7 @@ dtx_status dtx_corr_store_read(const char *dir, const char *key, int32_t src_nv,
                         "%s: %s: has a deformed_source (a multicomponent correspondence has "
                         "none)",
                         path, group);
+    free(stored);
     if (st != DTX_OK)
         dtx_h5_corr_free(c);
     return st;
@@ -98,7 +125,7 @@ dtx_status dtx_corr_store_write(const char *dir, const char *key, const int32_t 
                                 int64_t npairs, const double *deformed_src, int32_t nv_s,
                                 const dtx_h5_corr_meta *meta, dtx_error *err)
 {
-    char path[4400], tmp[4600], group[DTX_H5_PATH_MAX], host[64] = "host";
+    char path[4400], tmp[4600], group[DTX_H5_PATH_MAX], host[64] = "host", hash[17];
     hid_t f = H5I_INVALID_HID;
     dtx_status st;
     if ((st = dtx_corr_store_path(dir, key, path, sizeof path, err)) != DTX_OK)
@@ -118,9 +145,12 @@ dtx_status dtx_corr_store_write(const char *dir, const char *key, const int32_t 
         (int)sizeof tmp)
         return dtx_seterr(err, DTX_EINVAL, "correspondence store %s: path too long", dir);
     snprintf(group, sizeof group, "/correspondences/%s", key);
+    content_hash(pairs, npairs, deformed_src, nv_s, hash);
     st = dtx_h5_create(tmp, MPI_COMM_NULL, &f, err);
     if (st == DTX_OK)
         st = dtx_h5_write_corr(f, group, pairs, npairs, deformed_src, nv_s, meta, err);
+    if (st == DTX_OK)
+        st = dtx_h5_write_attr_str(f, group, "content_hash", hash, err);
     if (f >= 0) {
         dtx_error e2;
         if (dtx_h5_close(&f, &e2) != DTX_OK && st == DTX_OK) {

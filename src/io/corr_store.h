@@ -7,7 +7,9 @@
  * hex hash the driver computes of everything that determines it (source
  * mesh, target mesh, markers and the correspondence parameters, which name
  * the method).  Each file is a dtx HDF5 file (schemas/hdf5-layout-v1.md)
- * holding the one group /correspondences/KEY; `dtx validate` accepts it.
+ * holding the one group /correspondences/KEY with one more attribute,
+ * content_hash (a hash of its arrays, checked on reading, so a damaged file
+ * is refused rather than used); `dtx validate` accepts it.
  *
  * Files are written aside ("DIR/.KEY.h5.tmp-HOST-PID") and renamed into
  * place, so the final name never holds a half-written file; two jobs that
@@ -33,7 +35,7 @@ dtx_status dtx_corr_store_path(const char *dir, const char *key, char *out, size
 /* Looks for the correspondence of key in the store dir.  *found = 0 (and
  * DTX_OK) when DIR/KEY.h5 does not exist.  A file that exists is read in
  * full and checked (dtx_h5_read_corr with src_nv, src_nf, tgt_nf; its key
- * attribute must equal key; need_deformed != 0: sp04's, it must hold a
+ * attribute must equal key and its arrays their content_hash; need_deformed != 0: sp04's, it must hold a
  * deformed source; == 0: multicomponent's, it must hold none): anything
  * wrong gives an error naming the file and the problem, and *c is left
  * empty.  On success *c is owned by the caller (dtx_h5_corr_free). */
