@@ -99,7 +99,6 @@ static dtx_status correspond_only(run_state *r, dtx_error *err)
 {
     dtx_status st;
     const char *dir = run_store_dir(r);
-    int n = 0;
     if (!dir)
         return dtx_seterr(err, DTX_EJOB,
                           "%s: --correspond-only needs a correspondence store (--store DIR or "
@@ -107,12 +106,11 @@ static dtx_status correspond_only(run_state *r, dtx_error *err)
                           r->job.job_path ? r->job.job_path : "job");
     if ((st = run_read_inputs(r, err)) != DTX_OK || (st = run_correspondences(r, err)) != DTX_OK)
         return st;
-    for (int t = 0; t < r->nt; t++)
-        n += !r->tg[t].same_conn && r->tg[t].reused != RUN_CORR_STORE;
     if (!run_uses_correspondence(r))
         run_say(r, "dtx: the job's method needs no correspondence: nothing stored");
     else
-        run_say(r, "dtx: correspondence store %s: %d of %d target(s) written", dir, n, r->nt);
+        run_say(r, "dtx: the correspondences of the job's %d target(s) are in store %s", r->nt,
+                dir);
     return DTX_OK;
 }
 
