@@ -4,6 +4,7 @@
 #   two jobs with one store: the first computes the lion's correspondence,
 #     the second takes it from the store; both results bitwise equal a
 #     store-less run's; the store file validates, no temporary is left;
+#   two jobs at once on an empty store: both succeed, one file, no temporary;
 #   changed markers: a new key, computed again (a second store file);
 #   multicomponent: stored without a deformed source and taken back, the
 #     result bitwise equal a store-less run's; an sp04 job does not take it;
@@ -83,6 +84,20 @@ check "the store file validates" validates
 check "no temporary file left" test -z "$(find "$W/store" -name '.*')"
 good=$(ls "$W"/store/*.h5)
 cp "$good" "$W/good-store-file.h5"
+
+# ---- two jobs at once on an empty store: both compute, either rename wins --------
+job p1 sp04 lion markers.csv store-p
+job p2 sp04 lion markers.csv store-p
+rc1=0 rc2=0
+run p1 & pid1=$!
+run p2 & pid2=$!
+wait $pid1 || rc1=$?
+wait $pid2 || rc2=$?
+check "concurrent jobs: both succeed" test $rc1 -eq 0 -a $rc2 -eq 0
+check "concurrent jobs: both results bitwise equal the store-less one" \
+    bash -c "$(declare -f equal); DTX='$DTX' W='$W'; equal ref p1 && equal ref p2"
+check "concurrent jobs: one store file, no temporary left" \
+    test "$(ls -A "$W/store-p")" = "$(ls "$W/store")"
 
 # ---- changed markers -----------------------------------------------------------
 job c sp04 lion dropped.csv
