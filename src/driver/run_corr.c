@@ -205,8 +205,10 @@ static void find_cached(run_state *r, const char *cache, int *reused)
         dtx_h5_corr c;
         if (reused[t])
             continue;
+        memset(&c, 0, sizeof c);
         if (dtx_h5_find_corr_by_key(f, tc->key, &group, &e) == DTX_OK && group &&
-            dtx_h5_read_corr(f, group, r->src.nv, r->src.nf, tc->mesh.nf, &c, &e) == DTX_OK) {
+            dtx_h5_read_corr(f, group, r->src.nv, r->src.nf, tc->mesh.nf, &c, &e) == DTX_OK &&
+            c.deformed_src) {
             memset(&tc->corr, 0, sizeof tc->corr);
             tc->corr.npairs = c.npairs;
             tc->corr.pairs = c.pairs;
@@ -214,9 +216,9 @@ static void find_cached(run_state *r, const char *cache, int *reused)
             tc->corr.nv_src = c.nv_s;
             c.pairs = NULL;
             c.deformed_src = NULL;
-            dtx_h5_corr_free(&c);
             reused[t] = 1;
         }
+        dtx_h5_corr_free(&c); /* what was not taken (none when the read failed) */
         free(group);
     }
     dtx_h5_close(&f, NULL);

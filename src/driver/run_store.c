@@ -65,7 +65,8 @@ void run_store_lookup(run_state *r, int *reused)
 /* 1 when path is one of the job's input files (never written). */
 static int is_input(const run_state *r, const char *path)
 {
-    if (dtx_file_same_inode(path, r->job.source_file) == 1)
+    if (dtx_file_same_inode(path, r->job.source_file) == 1 ||
+        (r->job.job_path && dtx_file_same_inode(path, r->job.job_path) == 1))
         return 1;
     for (int t = 0; t < r->nt; t++) {
         const dtx_job_target *tj = r->tg[t].tj;
