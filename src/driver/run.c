@@ -16,9 +16,11 @@
  *      keypoints "auto" the ranks select the key points together, each
  *      evaluating its share of the candidates [run_corr.c];
  *   4. correspondences: reused from the partial or the old output when their key
- *      (a hash of both meshes, the markers and the parameters) matches, else
- *      computed, different targets on different ranks, then broadcast (none
- *      for biharmonic with markers as key points); then, for biharmonic, each
+ *      (a hash of both meshes, the markers and the parameters) matches, or
+ *      taken from the correspondence store [run_store.c], else computed,
+ *      different targets on different ranks, then broadcast and written into
+ *      the store (none for biharmonic with markers as key points); then, for
+ *      biharmonic, each
  *      target's key points: its markers, or the selected ones mapped through
  *      the correspondence [run_corr.c];
  *   5. open the output: create every mesh, correspondence, key-point set
@@ -32,6 +34,9 @@
  *   7. finish: mark results complete, close, rename OUTPUT.partial to OUTPUT
  *      [run_output.c];
  *   8. summary (JSON) and the last progress line [run_summary.c].
+ *
+ * --correspond-only runs phases 2 and 4 alone (into the store) and stops
+ * before the output is looked at.
  *
  * Crash safety: every object of the output is created and flushed before the
  * first frame is written, with its space allocated, so a process killed in

@@ -278,13 +278,14 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         return err->code;
     }
     /* reused[t]: 0 to compute, 1 found in a cache, 2 not needed (springs
-     * onto a target of the source's connectivity). */
+     * onto a target of the source's connectivity), 3 (RUN_CORR_STORE) taken
+     * from the correspondence store (run_store.c). */
     for (int t = 0; t < r->nt; t++)
         reused[t] = r->tg[t].same_conn ? 2 : 0;
     /* The partial of an interrupted run holds correspondences too, even
      * when it is discarded.  Only sp04's are looked up: a cached one is
      * read with its deformed source, which the multicomponent one has
-     * not. */
+     * not (the store, looked up next, holds both kinds). */
     if (r->rank == 0 && r->method->correspondence == DTX_TRANSFER_CORR_SP04) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);

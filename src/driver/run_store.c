@@ -38,8 +38,8 @@ void run_store_lookup(run_state *r, int *reused)
         int found = 0;
         if (reused[t])
             continue;
-        if (dtx_corr_store_read(dir, tc->key, r->src.nv, r->src.nf, tc->mesh.nf,
-                                needs_deformed(r), &c, &found, &e) != DTX_OK) {
+        if (dtx_corr_store_read(dir, tc->key, r->src.nv, r->src.nf, tc->mesh.nf, needs_deformed(r),
+                                &c, &found, &e) != DTX_OK) {
             /* Never used: computed again, and the file replaced by rename. */
             run_say(r,
                     "dtx: warning: target %s: correspondence store: %s; computing the "

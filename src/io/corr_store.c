@@ -97,8 +97,7 @@ dtx_status dtx_corr_store_read(const char *dir, const char *key, int32_t src_nv,
                         path, group, c->key ? c->key : "", key);
     else if (need_deformed && !c->deformed_src)
         st = dtx_seterr(err, DTX_EFORMAT,
-                        "%s: %s: no deformed_source (an sp04 correspondence has one)", path,
-                        group);
+                        "%s: %s: no deformed_source (an sp04 correspondence has one)", path, group);
     else if (!need_deformed && c->deformed_src)
         st = dtx_seterr(err, DTX_EFORMAT,
                         "%s: %s: has a deformed_source (a multicomponent correspondence has "
@@ -131,8 +130,8 @@ dtx_status dtx_corr_store_write(const char *dir, const char *key, const int32_t 
     if ((st = dtx_corr_store_path(dir, key, path, sizeof path, err)) != DTX_OK)
         return st;
     if (!meta || !meta->key || strcmp(meta->key, key) != 0)
-        return dtx_seterr(err, DTX_EINVAL, "%s: the correspondence's key differs from the "
-                          "file's", path);
+        return dtx_seterr(err, DTX_EINVAL, "%s: the correspondence's key differs from the file's",
+                          path);
     /* A name of this host and process alone: jobs on other hosts sharing
      * the directory write their own temporaries. */
     if (gethostname(host, sizeof host) != 0)
@@ -161,8 +160,7 @@ dtx_status dtx_corr_store_write(const char *dir, const char *key, const int32_t 
     if (st == DTX_OK && sync_path(tmp, 0) != 0)
         st = dtx_seterr(err, DTX_EIO, "%s: cannot sync: %s", tmp, strerror(errno));
     if (st == DTX_OK && rename(tmp, path) != 0)
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", tmp, path,
-                        strerror(errno));
+        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", tmp, path, strerror(errno));
     if (st != DTX_OK) {
         remove(tmp);
         return st;

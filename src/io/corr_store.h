@@ -35,10 +35,11 @@ dtx_status dtx_corr_store_path(const char *dir, const char *key, char *out, size
 /* Looks for the correspondence of key in the store dir.  *found = 0 (and
  * DTX_OK) when DIR/KEY.h5 does not exist.  A file that exists is read in
  * full and checked (dtx_h5_read_corr with src_nv, src_nf, tgt_nf; its key
- * attribute must equal key and its arrays their content_hash; need_deformed != 0: sp04's, it must hold a
- * deformed source; == 0: multicomponent's, it must hold none): anything
- * wrong gives an error naming the file and the problem, and *c is left
- * empty.  On success *c is owned by the caller (dtx_h5_corr_free). */
+ * attribute must equal key and its arrays their content_hash;
+ * need_deformed != 0: sp04's, it must hold a deformed source; == 0:
+ * multicomponent's, it must hold none): anything wrong gives an error
+ * naming the file and the problem, and *c is left empty.  On success *c
+ * is owned by the caller (dtx_h5_corr_free). */
 dtx_status dtx_corr_store_read(const char *dir, const char *key, int32_t src_nv, int32_t src_nf,
                                int32_t tgt_nf, int need_deformed, dtx_h5_corr *c, int *found,
                                dtx_error *err);
