@@ -14,7 +14,12 @@
 #   --correspond-only without a store is refused;
 #   a make rehearsal (scripts/dataset.mk): N one-frame clips onto 2
 #     characters compute exactly 2 correspondences, and a rerun does nothing
-#     (N = 4; 3 in the sanitizer pass; scripts/bench-corr-store.sh runs 200).
+#     (N = 4; scripts/bench-corr-store.sh runs 200).
+# The sanitizer pass leaves out the concurrent jobs, the changed markers, the
+# sp04-after-multicomponent store, the store-less multicomponent reference,
+# the garbage and damaged files and the make rehearsal (cli.make_dataset
+# runs the store through make there); the store's reading and writing paths
+# are all still taken.
 set -euo pipefail
 D="$DTX_BUILD/data/sumner-cat-lion"
 W="$DTX_TESTDATA"
@@ -86,47 +91,57 @@ good=$(ls "$W"/store/*.h5)
 cp "$good" "$W/good-store-file.h5"
 
 # ---- two jobs at once on an empty store: both compute, either rename wins --------
-job p1 sp04 lion markers.csv store-p
-job p2 sp04 lion markers.csv store-p
-rc1=0 rc2=0
-run p1 & pid1=$!
-run p2 & pid2=$!
-wait $pid1 || rc1=$?
-wait $pid2 || rc2=$?
-check "concurrent jobs: both succeed" test $rc1 -eq 0 -a $rc2 -eq 0
-check "concurrent jobs: both results bitwise equal the store-less one" \
-    bash -c "$(declare -f equal); DTX='$DTX' W='$W'; equal ref p1 && equal ref p2"
-check "concurrent jobs: one store file, no temporary left" \
-    test "$(ls -A "$W/store-p")" = "$(ls "$W/store")"
+if plain_pass; then
+    job p1 sp04 lion markers.csv store-p
+    job p2 sp04 lion markers.csv store-p
+    rc1=0 rc2=0
+    run p1 & pid1=$!
+    run p2 & pid2=$!
+    wait $pid1 || rc1=$?
+    wait $pid2 || rc2=$?
+    check "concurrent jobs: both succeed" test $rc1 -eq 0 -a $rc2 -eq 0
+    check "concurrent jobs: both results bitwise equal the store-less one" \
+        bash -c "$(declare -f equal); DTX='$DTX' W='$W'; equal ref p1 && equal ref p2"
+    check "concurrent jobs: one store file, no temporary left" \
+        test "$(ls -A "$W/store-p")" = "$(ls "$W/store")"
+fi
 
 # ---- changed markers -----------------------------------------------------------
-job c sp04 lion dropped.csv
-run c
-check "changed markers: computed" says c computed
-check "changed markers: a second store file" test "$(nfiles)" -eq 2
+if plain_pass; then
+    job c sp04 lion dropped.csv
+    run c
+    check "changed markers: computed" says c computed
+    check "changed markers: a second store file" test "$(nfiles)" -eq 2
+    job c2 sp04 lion dropped.csv
+    run c2
+    check "changed markers: the next job takes the new one" says c2 store
+fi
 
 # ---- multicomponent --------------------------------------------------------------
 job mref multicomponent eyes eyes.csv ""
 job m1 multicomponent eyes eyes.csv
 job m2 multicomponent eyes eyes.csv
-run mref
+plain_pass && run mref
 run m1 --correspond-only
 run m2
 check "multicomponent: --correspond-only writes no output" test ! -e "$W/m1.h5"
-check "multicomponent: --correspond-only stores it" test "$(nfiles)" -eq 3
+check "multicomponent: --correspond-only stores it" \
+    grep -q "target t: correspondence stored as" "$W/m1.log"
 check "multicomponent: the next job takes it from the store" says m2 store
-check "multicomponent: result bitwise equals the store-less one" equal mref m2
+plain_pass && check "multicomponent: result bitwise equals the store-less one" equal mref m2
 check "multicomponent: the store files validate" validates
 # The same lion and markers in a fresh store, multicomponent first: the sp04
 # job after it computes its own (the key covers the method).
-job x1 multicomponent lion markers.csv store2
-job x2 sp04 lion markers.csv store2
-run x1 --correspond-only
-check "multicomponent onto the lion: stored" test "$(ls -A "$W/store2" | wc -l)" -eq 1
-run x2 --correspond-only
-check "sp04 does not take the multicomponent entry of the same inputs" \
-    grep -q "target t: correspondence computed" "$W/x2.log"
-check "... and stores its own beside it" test "$(ls -A "$W/store2" | wc -l)" -eq 2
+if plain_pass; then
+    job x1 multicomponent lion markers.csv store2
+    job x2 sp04 lion markers.csv store2
+    run x1 --correspond-only
+    check "multicomponent onto the lion: stored" test "$(ls -A "$W/store2" | wc -l)" -eq 1
+    run x2 --correspond-only
+    check "sp04 does not take the multicomponent entry of the same inputs" \
+        grep -q "target t: correspondence computed" "$W/x2.log"
+    check "... and stores its own beside it" test "$(ls -A "$W/store2" | wc -l)" -eq 2
+fi
 
 # ---- damaged store files ---------------------------------------------------------
 damaged() { # damaged WHAT: the lion's store file damaged by WHAT, then a run
@@ -145,8 +160,10 @@ damaged() { # damaged WHAT: the lion's store file damaged by WHAT, then a run
 }
 head -c 3000 "$W/good-store-file.h5" > "$good"
 damaged truncated
-echo "not an HDF5 file" > "$good"
-damaged garbage
+if plain_pass; then
+    echo "not an HDF5 file" > "$good"
+    damaged garbage
+fi
 if plain_pass && $PY -c 'import h5py' 2> /dev/null; then
     $PY - "$good" <<'PY'
 import sys, h5py
@@ -170,7 +187,10 @@ check "... and writes nothing" test ! -e "$W/nostore.h5"
 
 # ---- a make rehearsal: many clips onto 2 characters --------------------------------
 N=4
-plain_pass || N=3
+if ! plain_pass; then
+    finish
+    exit
+fi
 T="$W/tree"
 mkdir -p "$T/source" "$T/targets/lion" "$T/targets/cat"
 ln -s "$D/source/cat-reference.obj" "$T/source/rest.obj"
