@@ -202,7 +202,7 @@ static const char *const lines[] = {
     "        \"markers\": { \"type\": \"string\", \"required\": true },\n",
     "        \"parameters\": { \"type\": \"string\", \"required\": true, \"json\": true },\n",
     "        \"dtx_version\": { \"type\": \"string\", \"required\": true },\n",
-    "        \"content_hash\": { \"type\": \"string\", \"required\": false, \"doc\": \"correspondence store files: hex hash of pairs and deformed_source, checked on reading\" }\n",
+    "        \"content_hash\": { \"type\": \"string\", \"required\": false, \"hex\": 16, \"doc\": \"correspondence store files: FNV-1a 64 of pairs and deformed_source (schemas/hdf5-layout-v1.md), checked on reading\" }\n",
     "      },\n",
     "      \"references\": {\n",
     "        \"source_mesh\": { \"attribute\": \"source_mesh\", \"kind\": \"meshes\", \"required\": false },\n",
