@@ -23,13 +23,17 @@
 #   OUT/jobs/TGT/SEQ.json      the dtx job of one (target, sequence) pair
 #   OUT/results/TGT/SEQ.h5     /results/TGT/SEQ                     (dtx run)
 #   OUT/results/TGT/SEQ.h5.summary.json    (and SEQ.h5.partial while it runs)
+#   OUT/correspondences/KEY.h5 the correspondence store: one file per target
+#                              correspondence, shared by all the target's jobs
+#   OUT/.corr/TGT              stamp: TGT's correspondence is in the store
 #   OUT/.vars/*                the values of the variables below that change outputs
 #
 # One result per (target, sequence) pair, so that a changed frame reruns only the
 # pairs of its sequence and changed markers or a changed target mesh rerun only the
-# pairs of that target.  The price: each pair computes the correspondence of its
-# target once on first build (later runs reuse it from the old result's cache when
-# the markers, meshes and parameters are unchanged).
+# pairs of that target.  Each target's correspondence is computed once, before its
+# pairs (dtx run --correspond-only into the store OUT/correspondences, keyed by a
+# hash of the meshes, markers and parameters); every pair's job names the store
+# and takes it from there, so N sequences onto a target cost one correspondence.
 #
 # Variables (those marked * are recorded in OUT/.vars: changing them redoes the
 # steps they affect; the others never do):
@@ -104,6 +108,10 @@ SEQS := $(call dirs_in,$(DATA)/sequences)
 TGTS := $(call dirs_in,$(DATA)/targets)
 PAIRS := $(foreach t,$(TGTS),$(addprefix $t/,$(SEQS)))
 RESULTS := $(PAIRS:%=$(OUT)/results/%.h5)
+# The job each target's correspondence is computed with (any sequence would do:
+# they share the source rest mesh).
+FIRST_SEQ := $(firstword $(SEQS))
+CORR_STAMPS := $(TGTS:%=$(OUT)/.corr/%)
 JOBS := $(PAIRS:%=$(OUT)/jobs/%.json)
 IMPORTS := $(SEQS:%=$(OUT)/sequences/%.h5) $(TGTS:%=$(OUT)/targets/%.h5)
 
@@ -166,6 +174,7 @@ define job_json
 |  "targets": [{"name": "$1", "file": "../../targets/$1.h5", "mesh": "/meshes/$1",$(if $(TRANSLATION),
 |               "translation": "$(TRANSLATION)"$(,))
 |               "markers": {"file": "../../targets/$1.h5", "path": "/markers/$1"}}],
+|  "correspondence_store": "../../correspondences",
 |  "output": {"file": "../../results/$1/$2.h5", "dtype": "$(OUT_DTYPE)"$(if $(BLOCK_FRAMES),$(,) "block_frames": $(BLOCK_FRAMES))}$(if $(SP04),$(,)
 |  "sp04": $(SP04))
 |}
@@ -177,7 +186,7 @@ shq = '$(subst ','\'',$1)'
 # Rules.
 # --------------------------------------------------------------------------
 .PHONY: all imports jobs list clean help
-all: $(RESULTS)
+all: $(CORR_STAMPS) $(RESULTS)
 imports: $(IMPORTS)
 jobs: $(JOBS)
 
@@ -191,7 +200,8 @@ help:
 	@sed -n '1,/^$$/s/^# \{0,1\}//p' $(firstword $(MAKEFILE_LIST))
 
 clean:
-	@rm -rf '$(OUT)/sequences' '$(OUT)/targets' '$(OUT)/jobs' '$(OUT)/results' '$(OUT)/.vars'
+	@rm -rf '$(OUT)/sequences' '$(OUT)/targets' '$(OUT)/jobs' '$(OUT)/results' '$(OUT)/.vars' \
+	    '$(OUT)/correspondences' '$(OUT)/.corr'
 
 .SECONDEXPANSION:
 
@@ -242,12 +252,28 @@ $(OUT)/jobs/%.json: $(OUT)/.vars/job
 	    | sed 's/^|//' > "$$tmp"
 	mv -f "$$tmp" '$@'
 
+# A target's correspondence, computed once into the store before any of its
+# pairs run (a pair's run then takes it from there).  The stamp is redone when
+# the source rest mesh, the target file or the job text (the sp04 parameters)
+# changes, not when the frames of the sequence whose job it uses do; a
+# correspondence already in the store under the same key is not computed
+# again.  The pairs wait for it (order-only: a redone stamp alone reruns no
+# pair; whatever changes a pair's correspondence changes its job or target).
+$(OUT)/.corr/%: $(OUT)/jobs/%/$(FIRST_SEQ).json $(SOURCE_REST) $(OUT)/targets/%.h5 \
+                | $(OUT)/sequences/$(FIRST_SEQ).h5
+	@mkdir -p '$(@D)'
+	echo "dtx run --correspond-only $<"
+	$(if $(THREADS),OMP_NUM_THREADS=$(THREADS)) OPENBLAS_NUM_THREADS=1 \
+	    $(if $(NP),$(MPIRUN) $(NPFLAG) $(NP)) '$(DTX)' run --correspond-only $(RUNFLAGS) '$<'
+	touch '$@'
+
 # The result of one pair.  dtx run itself writes OUTPUT.partial and renames it
 # into place at the end; with --resume it continues the partial file of an
 # interrupted run, or does nothing when the output already matches the job and
 # its inputs (then the touch tells make it is up to date).
 $(OUT)/results/%.h5: $(OUT)/jobs/%.json $(OUT)/sequences/$$(call pair_seq,$$*).h5 \
-                     $(OUT)/targets/$$(call pair_target,$$*).h5
+                     $(OUT)/targets/$$(call pair_target,$$*).h5 \
+                     | $(OUT)/.corr/$$(call pair_target,$$*)
 	@mkdir -p '$(@D)'
 	echo "dtx run $<"
 	$(if $(THREADS),OMP_NUM_THREADS=$(THREADS)) OPENBLAS_NUM_THREADS=1 \

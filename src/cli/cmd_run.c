@@ -29,7 +29,12 @@ int dtx_cmd_run(int argc, char **argv)
             o.resume = 1;
         else if (strcmp(argv[i], "--break-lock") == 0)
             o.break_lock = 1;
+        else if (strcmp(argv[i], "--correspond-only") == 0)
+            o.correspond_only = 1;
     o.summary_path = dtx_cli_opt_value(argc, argv, "--summary");
+    o.store_dir = dtx_cli_opt_value(argc, argv, "--store");
+    if (o.store_dir && !o.store_dir[0])
+        return dtx_cli_usage_rank0(dtx_cli_find_name("run"), "--store needs a directory");
     dtx_cli_mpi_init(&argc, &argv);
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     st = dtx_run_job(pos[0], MPI_COMM_WORLD, &o, &err);

@@ -127,13 +127,19 @@ static const dtx_cli_opt run_opts[] = {
                            "host); check first that it is"},
     {"--quiet", NULL, "print errors only (no progress, no warnings)"},
     {"--summary", "FILE.json", "where to write the run summary (default OUTPUT.summary.json)"},
+    {"--store", "DIR", "correspondence store shared by jobs: take each target's correspondence "
+                       "from DIR/KEY.h5, or compute and write it there (overrides the job's "
+                       "correspondence_store)"},
+    {"--correspond-only", NULL, "compute the correspondences into the store and stop (no "
+                                "transfer; the output is not touched)"},
     {NULL, NULL, NULL},
 };
 
 static const dtx_cli_cmd run = {
     "run",
     "run a transfer job (alone or under mpirun)",
-    "dtx run JOB.json [--resume] [--break-lock] [--quiet] [--summary FILE.json]",
+    "dtx run JOB.json [--resume] [--break-lock] [--quiet] [--summary FILE.json]\n"
+    "        [--store DIR] [--correspond-only]",
     "Reads the job (schemas/job.schema.json), computes or reuses each target's\n"
     "correspondence, transfers every frame of every sequence onto every target and\n"
     "writes OUTPUT (through OUTPUT.partial, renamed only when complete).  OUTPUT.lock\n"

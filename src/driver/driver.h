@@ -30,6 +30,10 @@ typedef struct {
     int resume;         /* continue OUTPUT.partial of an interrupted run of the same job */
     int break_lock;     /* remove OUTPUT.lock first: the user checked that the run
                            it names is gone (output_lock.h) */
+    const char *store_dir; /* correspondence store directory (overrides the job's
+                              correspondence_store), or NULL */
+    int correspond_only;   /* compute and store the correspondences, transfer nothing
+                              (needs a store; the output is not touched) */
 } dtx_run_opts;
 
 /* Runs the job file at job_path on every rank of comm (MPI must be

@@ -16,9 +16,11 @@
  *      keypoints "auto" the ranks select the key points together, each
  *      evaluating its share of the candidates [run_corr.c];
  *   4. correspondences: reused from the partial or the old output when their key
- *      (a hash of both meshes, the markers and the parameters) matches, else
- *      computed, different targets on different ranks, then broadcast (none
- *      for biharmonic with markers as key points); then, for biharmonic, each
+ *      (a hash of both meshes, the markers and the parameters) matches, or
+ *      taken from the correspondence store [run_store.c], else computed,
+ *      different targets on different ranks, then broadcast and written into
+ *      the store (none for biharmonic with markers as key points); then, for
+ *      biharmonic, each
  *      target's key points: its markers, or the selected ones mapped through
  *      the correspondence [run_corr.c];
  *   5. open the output: create every mesh, correspondence, key-point set
@@ -32,6 +34,9 @@
  *   7. finish: mark results complete, close, rename OUTPUT.partial to OUTPUT
  *      [run_output.c];
  *   8. summary (JSON) and the last progress line [run_summary.c].
+ *
+ * --correspond-only runs phases 2 and 4 alone (into the store) and stops
+ * before the output is looked at.
  *
  * Crash safety: every object of the output is created and flushed before the
  * first frame is written, with its space allocated, so a process killed in
@@ -93,6 +98,27 @@ static void release(run_state *r)
     dtx_job_free(&r->job);
 }
 
+/* --correspond-only: phases 2 and 4 alone, into the store; the output
+ * and its lock are not touched. */
+static dtx_status correspond_only(run_state *r, dtx_error *err)
+{
+    dtx_status st;
+    const char *dir = run_store_dir(r);
+    if (!dir)
+        return dtx_seterr(err, DTX_EJOB,
+                          "%s: --correspond-only needs a correspondence store (--store DIR or "
+                          "the job's correspondence_store)",
+                          r->job.job_path ? r->job.job_path : "job");
+    if ((st = run_read_inputs(r, err)) != DTX_OK || (st = run_correspondences(r, err)) != DTX_OK)
+        return st;
+    if (!run_uses_correspondence(r))
+        run_say(r, "dtx: the job's method needs no correspondence: nothing stored");
+    else
+        run_say(r, "dtx: the correspondences of the job's %d target(s) are in store %s", r->nt,
+                dir);
+    return DTX_OK;
+}
+
 dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *opts,
                        dtx_error *err)
 {
@@ -126,6 +152,11 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
     dtx_job_transfer_params(&r.job, &r.prm);
     r.method = dtx_transfer_method_of(r.prm.kind);
     r.align = r.method->solve_group;
+    if (opts->correspond_only) {
+        st = correspond_only(&r, err);
+        release(&r);
+        return st;
+    }
     if ((st = run_take_output(&r, err)) != DTX_OK)
         goto fail;
     /* 2. The inputs. */

@@ -277,8 +277,10 @@ static void find_cached(run_state *r, const char *cache, int *reused)
         dtx_h5_corr c;
         if (reused[t])
             continue;
+        memset(&c, 0, sizeof c);
         if (dtx_h5_find_corr_by_key(f, tc->key, &group, &e) == DTX_OK && group &&
-            dtx_h5_read_corr(f, group, r->src.nv, r->src.nf, tc->mesh.nf, &c, &e) == DTX_OK) {
+            dtx_h5_read_corr(f, group, r->src.nv, r->src.nf, tc->mesh.nf, &c, &e) == DTX_OK &&
+            c.deformed_src) {
             memset(&tc->corr, 0, sizeof tc->corr);
             tc->corr.npairs = c.npairs;
             tc->corr.pairs = c.pairs;
@@ -286,9 +288,9 @@ static void find_cached(run_state *r, const char *cache, int *reused)
             tc->corr.nv_src = c.nv_s;
             c.pairs = NULL;
             c.deformed_src = NULL;
-            dtx_h5_corr_free(&c);
             reused[t] = 1;
         }
+        dtx_h5_corr_free(&c); /* what was not taken (none when the read failed) */
         free(group);
     }
     dtx_h5_close(&f, NULL);
@@ -348,24 +350,26 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         return err->code;
     }
     /* reused[t]: 0 to compute, 1 found in a cache, 2 not needed (springs
-     * onto a target of the source's connectivity). */
+     * onto a target of the source's connectivity), 3 (RUN_CORR_STORE) taken
+     * from the correspondence store (run_store.c). */
     for (int t = 0; t < r->nt; t++)
         reused[t] = r->tg[t].same_conn ? 2 : 0;
     /* The partial of an interrupted run holds correspondences too, even
      * when it is discarded.  Only sp04's are looked up: a cached one is
      * read with its deformed source, which the multicomponent one has
-     * not. */
+     * not (the store, looked up next, holds both kinds). */
     if (r->rank == 0 && r->method->correspondence == DTX_TRANSFER_CORR_SP04) {
         find_cached(r, r->partial, reused);
         find_cached(r, r->job.output_file, reused);
     }
+    run_store_lookup(r, reused);
     MPI_Bcast(reused, r->nt, MPI_INT, 0, r->comm);
     assign_owners(r, reused);
     corr_params_from_job(&r->job, &prm);
     st = run_injected_fault(r, "correspondence", err);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
-        tc->reused = reused[t] == 1;
+        tc->reused = reused[t] == 2 ? RUN_CORR_COMPUTED : reused[t];
         ncomputed += !reused[t];
         if (reused[t] || tc->owner != r->rank)
             continue;
@@ -397,10 +401,12 @@ dtx_status run_correspondences(run_state *r, dtx_error *err)
         else
             run_say(r, "dtx: target %s: correspondence %s: %lld triangle pairs%s",
                     r->tg[t].tj->name,
-                    r->tg[t].reused ? "reused from the output's cache" : "computed",
+                    r->tg[t].reused == RUN_CORR_STORE    ? "taken from the store"
+                    : r->tg[t].reused == RUN_CORR_CACHED ? "reused from the output's cache"
+                                                         : "computed",
                     (long long)r->tg[t].corr.npairs, use);
     if (ncomputed > 1 && r->nranks > 1)
         run_say(r, "dtx: %d correspondences computed on %d ranks in %.2f s", ncomputed,
                 ncomputed < r->nranks ? ncomputed : r->nranks, r->tm.correspond);
-    return DTX_OK;
+    return run_store_save(r, err);
 }

@@ -62,13 +62,17 @@ typedef struct {
 
 typedef enum { OUT_FRESH, OUT_RESUME, OUT_DONE } out_mode;
 
+enum { RUN_CORR_COMPUTED = 0, RUN_CORR_CACHED = 1, RUN_CORR_STORE = 3 };
+
 typedef struct {
     const dtx_job_target *tj;
     dtx_mesh mesh;
     dtx_markers mk;
     dtx_corr corr;
     char key[17];
-    int reused;    /* correspondence found in a cache */
+    int reused;    /* where the correspondence came from: RUN_CORR_COMPUTED,
+                      RUN_CORR_CACHED (the output's or partial's cache) or
+                      RUN_CORR_STORE (the correspondence store) */
     int same_conn; /* methods with a proxy (springs): the source's vertices
                       and faces (no correspondence, no markers needed) */
     int owner;     /* rank that computes it */
@@ -190,6 +194,19 @@ dtx_status run_finish_output(run_state *r, dtx_error *err);
 dtx_status run_select_keypoints(run_state *r, dtx_error *err);
 dtx_status run_correspondences(run_state *r, dtx_error *err);
 dtx_status run_target_keys(run_state *r, dtx_error *err);
+
+/* run_store.c: the correspondence store (src/io/corr_store.h). */
+
+/* The store directory: --store, else the job's correspondence_store, else NULL. */
+const char *run_store_dir(const run_state *r);
+/* Rank 0 (a no-op elsewhere and without a store): each target with
+ * reused[t] == 0 whose correspondence is in the store gets it in tc->corr
+ * and reused[t] = RUN_CORR_STORE; a store file that cannot be used is
+ * named in a warning and left to be recomputed. */
+void run_store_lookup(run_state *r, int *reused);
+/* Rank 0 writes every correspondence not taken from the store into it
+ * (creating the directory); after run_correspondences. */
+dtx_status run_store_save(run_state *r, dtx_error *err);
 
 /* run_weights.c: method biharmonic's bounded biharmonic weights of each
  * target's key points on the source (tc->Ws) and on the target (tc->Wt),

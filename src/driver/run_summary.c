@@ -256,7 +256,9 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
         fprintf(f, ": \"%s\"",
                 r->mode == OUT_DONE || r->tg[t].same_conn || !run_uses_correspondence(r)
                     ? "not needed"
-                    : (r->tg[t].reused ? "reused" : "computed"));
+                    : r->tg[t].reused == RUN_CORR_STORE  ? "store"
+                    : r->tg[t].reused == RUN_CORR_CACHED ? "reused"
+                                                         : "computed");
     }
     fprintf(f, "},\n  \"results\": [");
     for (int t = 0; t < r->nt; t++)

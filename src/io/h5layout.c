@@ -2263,8 +2263,9 @@ dtx_status dtx_h5_write_corr(hid_t file, const char *group, const int32_t *pairs
         goto done;
     if ((st = create_write(g, "pairs", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, pd, H5P_DEFAULT,
                            pairs, err)) != DTX_OK ||
-        (st = create_write(g, "deformed_source", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, vd,
-                           H5P_DEFAULT, deformed_src, err)) != DTX_OK ||
+        (deformed_src &&
+         (st = create_write(g, "deformed_source", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, vd,
+                            H5P_DEFAULT, deformed_src, err)) != DTX_OK) ||
         (st = dtx_h5_write_attr_str(g, ".", "key", meta->key, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_str(g, ".", "source_mesh", meta->source_mesh, err)) != DTX_OK ||
         (st = dtx_h5_write_attr_str(g, ".", "target_mesh", meta->target_mesh, err)) != DTX_OK ||
@@ -2302,26 +2303,29 @@ dtx_status dtx_h5_read_corr(hid_t file, const char *group, int32_t src_nv, int32
     hid_t pd = H5I_INVALID_HID, vd = H5I_INVALID_HID;
     hsize_t pdims[2] = {0, 0}, vdims[2] = {0, 0};
     dtx_status st;
+    int has_def;
     memset(c, 0, sizeof *c);
     if (object_type(file, group) != H5O_TYPE_GROUP)
         return ferr(err, DTX_EFORMAT, file, group, "missing (no such correspondence group)");
     if (join_path(group, "pairs", ppath, sizeof ppath) ||
         join_path(group, "deformed_source", vpath, sizeof vpath))
         return ferr(err, DTX_EINVAL, file, group, "path too long");
+    /* deformed_source is absent from a multicomponent correspondence. */
+    has_def = dtx_h5_path_exists(file, vpath);
     if ((st = open_checked(file, ppath, H5T_INTEGER, 2, want_p, "P x 2", &pd, pdims, err)) !=
             DTX_OK ||
-        (st = open_checked(file, vpath, H5T_FLOAT, 2, want_v, "nv_s x 3", &vd, vdims, err)) !=
-            DTX_OK)
+        (has_def && (st = open_checked(file, vpath, H5T_FLOAT, 2, want_v, "nv_s x 3", &vd,
+                                       vdims, err)) != DTX_OK))
         goto fail;
-    if (src_nv >= 0 && (int64_t)vdims[0] != src_nv) {
+    if (has_def && src_nv >= 0 && (int64_t)vdims[0] != src_nv) {
         st = ferr(err, DTX_EFORMAT, file, vpath, "has %llu rows, but the source mesh has %d "
                   "vertices", (unsigned long long)vdims[0], (int)src_nv);
         goto fail;
     }
     if ((st = read_whole(file, pd, ppath, pdims, 2, H5T_NATIVE_INT32, sizeof(int32_t),
                          (void **)&c->pairs, err)) != DTX_OK ||
-        (st = read_whole(file, vd, vpath, vdims, 2, H5T_NATIVE_DOUBLE, sizeof(double),
-                         (void **)&c->deformed_src, err)) != DTX_OK)
+        (has_def && (st = read_whole(file, vd, vpath, vdims, 2, H5T_NATIVE_DOUBLE,
+                                     sizeof(double), (void **)&c->deformed_src, err)) != DTX_OK))
         goto fail;
     c->npairs = (int64_t)pdims[0];
     c->nv_s = (int32_t)vdims[0];

@@ -393,20 +393,23 @@ typedef struct {
     int64_t npairs;
     int32_t *pairs;        /* npairs x 2: source triangle, target triangle */
     int32_t nv_s;
-    double *deformed_src;  /* nv_s x 3 */
+    double *deformed_src;  /* nv_s x 3, or NULL (multicomponent's) */
     char *key, *source_mesh, *target_mesh, *markers, *parameters, *dtx_version;
 } dtx_h5_corr;
 
-/* Writes pairs (npairs x 2 int32) and deformed_src (nv_s x 3 doubles) and
- * the attributes key, source_mesh, target_mesh, markers, parameters,
- * dtx_version (= DTX_VERSION).  Collective in parallel. */
+/* Writes pairs (npairs x 2 int32) and deformed_src (nv_s x 3 doubles; NULL
+ * for a multicomponent correspondence, which has none: no deformed_source
+ * is written) and the attributes key, source_mesh, target_mesh, markers,
+ * parameters, dtx_version (= DTX_VERSION).  Collective in parallel. */
 dtx_status dtx_h5_write_corr(hid_t file, const char *group, const int32_t *pairs,
                              int64_t npairs, const double *deformed_src, int32_t nv_s,
                              const dtx_h5_corr_meta *meta, dtx_error *err);
 
 /* Reads a correspondence into *c.  Checks shapes and, for each of src_nv,
  * src_nf, tgt_nf that is >= 0, that deformed_source has src_nv rows and
- * pair triangles are in [0, src_nf) / [0, tgt_nf).  Pass -1 to skip. */
+ * pair triangles are in [0, src_nf) / [0, tgt_nf).  Pass -1 to skip.  A
+ * group without deformed_source (multicomponent's) gives
+ * c->deformed_src == NULL and c->nv_s == 0: callers that need it check. */
 dtx_status dtx_h5_read_corr(hid_t file, const char *group, int32_t src_nv, int32_t src_nf,
                             int32_t tgt_nf, dtx_h5_corr *c, dtx_error *err);
 

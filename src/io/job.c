@@ -583,7 +583,8 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 
     /* ---- output ---- */
     if ((st = fill_path(f, out, "file", &job->output_file)) ||
-        (st = fill_path(f, out, "export_obj_dir", &job->export_obj_dir)))
+        (st = fill_path(f, out, "export_obj_dir", &job->export_obj_dir)) ||
+        (st = fill_path(f, doc, "correspondence_store", &job->corr_store)))
         return st;
     x = get(out, "dtype");
     job->output_dtype = cJSON_IsString(x) && strcmp(x->valuestring, "float64") == 0
@@ -1062,6 +1063,7 @@ void dtx_job_free(dtx_job *job)
     free(job->targets);
     free(job->output_file);
     free(job->export_obj_dir);
+    free(job->corr_store);
     memset(job, 0, sizeof *job);
 }
 

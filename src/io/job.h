@@ -119,6 +119,8 @@ typedef struct {
     char *output_file;    /* resolved */
     dtx_dtype output_dtype;
     char *export_obj_dir; /* resolved or NULL: also write OBJ frames here */
+    char *corr_store;     /* resolved or NULL: correspondence_store, the directory of
+                             correspondences shared by jobs (src/io/corr_store.h) */
     int32_t block_frames; /* [64] frames per block (read/solve/write unit) */
     int collective_io;    /* [0] frames written with collective MPI-IO (else independent) */
 

@@ -26,8 +26,12 @@ check() { # check DESCRIPTION COMMAND...
 not() { ! "$@"; }
 # mk ARGS...: the Makefile on the sample tree, one thread per run (make -j2).
 mk() { make -f "$DTX_SRC/scripts/dataset.mk" DATA="$DATA" OUT="$O" DTX="$DTX" THREADS=1 "$@"; }
-# The output files written since the stamp (variable stamps left out), sorted.
-changed() { find "$O" -type f -newer "$W/stamp" ! -path '*/.vars/*' | sed "s|^$O/||" | LC_ALL=C sort | tr '\n' ' '; }
+# The output files written since the stamp (variable stamps, the correspondence
+# store and its stamps left out: they are checked on their own), sorted.
+changed() {
+    find "$O" -type f -newer "$W/stamp" ! -path '*/.vars/*' ! -path '*/.corr/*' \
+        ! -path '*/correspondences/*' | sed "s|^$O/||" | LC_ALL=C sort | tr '\n' ' '
+}
 # build LOG ARGS...: mk with its output in LOG, shown when it fails.
 build() {
     local log=$1 rc
@@ -80,6 +84,17 @@ check "the output tree holds exactly the expected files" \
     same "files" "jobs/cat/jump.json jobs/cat/walk.json jobs/lion/jump.json jobs/lion/walk.json \
 $(res cat/jump)$(res cat/walk)$(res lion/jump)$(res lion/walk)\
 sequences/jump.h5 sequences/walk.h5 targets/cat.h5 targets/lion.h5 " "$(changed)"
+
+# Each target's correspondence computed once, into the store, and taken from
+# there by each of its pairs.
+check "first build: 2 correspondences computed (one per target)" \
+    test "$(grep -c "correspondence computed" "$W/make1.log")" -eq 2
+check "first build: the 4 pairs take them from the store" \
+    test "$(grep -c "correspondence taken from the store" "$W/make1.log")" -eq 4
+check "the store holds exactly 2 files" test "$(ls -A "$O/correspondences" | wc -l)" -eq 2
+for f in "$O"/correspondences/*.h5; do
+    check "store file ${f##*/} validates" "$DTX" validate "$f" > /dev/null
+done
 
 # The same transfer by hand: the Makefile wired the right frames and markers.
 H="$W/byhand"

@@ -363,10 +363,28 @@ static void test_bad_missing(void)
     make_good(path);
     f = reopen(path);
     CHECK(H5Adelete_by_name(f, "/meshes/lion", "nf", H5P_DEFAULT) >= 0);
-    CHECK(H5Ldelete(f, "/correspondences/c/deformed_source", H5P_DEFAULT) >= 0);
+    /* pairs is required (deformed_source is not: multicomponent's
+     * correspondence has none, test_optional_deformed_source). */
+    CHECK(H5Ldelete(f, "/correspondences/c/pairs", H5P_DEFAULT) >= 0);
     done(f);
     expect_bad(path, "/meshes/lion: missing attribute nf (int)",
-               "/correspondences/c: missing dataset deformed_source (float nv_s x 3)");
+               "/correspondences/c: missing dataset pairs (int P x 2)");
+}
+
+/* A correspondence without deformed_source (multicomponent's) is valid. */
+static void test_optional_deformed_source(void)
+{
+    const char *path = SCRATCH "no-deformed-source.h5";
+    char *report = NULL;
+    dtx_error e;
+    hid_t f;
+    make_good(path);
+    f = reopen(path);
+    CHECK(H5Ldelete(f, "/correspondences/c/deformed_source", H5P_DEFAULT) >= 0);
+    done(f);
+    CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_OK);
+    CHECK(report && contains(report, "/correspondences/c: ok"));
+    free(report);
 }
 
 static void test_bad_dtype(void)
@@ -646,6 +664,7 @@ int main(void)
     test_bad_complete();
     test_bad_dangling();
     test_bad_missing();
+    test_optional_deformed_source();
     test_bad_dtype();
     test_bad_root();
     test_bad_markers();

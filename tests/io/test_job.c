@@ -214,6 +214,7 @@ static void test_full_job(void)
         "  ],\n"
         "  \"output\": {\"file\": \"out/result.h5\", \"dtype\": \"float64\",\n"
         "             \"export_obj_dir\": \"objs\", \"block_frames\": 16},\n"
+        "  \"correspondence_store\": \"../store\",\n"
         "  \"sp04\": {\"w_smooth\": 2.5, \"w_identity\": 0.5, \"w_closest\": [3, 4],\n"
         "           \"max_distance\": 0.25, \"max_angle_deg\": 180}\n"
         "}\n";
@@ -260,6 +261,8 @@ static void test_full_job(void)
     CHECK(strcmp(job.output_file, "/data/jobs/out/result.h5") == 0);
     CHECK_EQ_INT(job.output_dtype, DTX_DTYPE_FLOAT64);
     CHECK(job.export_obj_dir && strcmp(job.export_obj_dir, "/data/jobs/objs") == 0);
+    /* A leading ".." goes up from the job's (canonical) directory. */
+    CHECK(job.corr_store && strcmp(job.corr_store, "/data/store") == 0);
     CHECK_EQ_INT(job.block_frames, 16);
     CHECK(job.sp04.w_smooth == 2.5);
     CHECK(job.sp04.w_identity == 0.5);
@@ -282,6 +285,7 @@ static void test_defaults(void)
     CHECK_EQ_INT(job.output_dtype, DTX_DTYPE_FLOAT32);
     CHECK_EQ_INT(job.block_frames, 64);
     CHECK(job.export_obj_dir == NULL);
+    CHECK(job.corr_store == NULL);
     CHECK_EQ_INT(job.targets[0].translation, DTX_TRANSLATION_FIXED);
     CHECK(strcmp(job.targets[0].name, "lion") == 0);
     CHECK(job.sp04.w_smooth == 1.0);
@@ -414,8 +418,8 @@ static void test_unknown_keys(void)
     char text[8192];
     snprintf(text, sizeof text, "%s", job_text(NULL, NULL, NULL, ",\"methd\":\"sp04\""));
     EXPECT_FAIL(text, "job.json: at the top level: unknown key \"methd\" (allowed: dtx_job, "
-                      "method, source, targets, output, sp04, multicomponent, springs, "
-                      "biharmonic)");
+                      "method, source, targets, output, correspondence_store, sp04, "
+                      "multicomponent, springs, biharmonic)");
     EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"],"
                          "\"frames\":3}",
                          NULL, NULL, NULL),
