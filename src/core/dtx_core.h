@@ -269,7 +269,8 @@ typedef struct {
     dtx_mc_lengths lengths; /* E3's measure of a length change [RELATIVE] */
     double w_laplacian; /* E4, Laplacian-coordinate lengths of orphan components [1] */
     double eps_factor;  /* proximity threshold: this x a component's longest edge [1.5] */
-    int max_iter;       /* iterations (NEWTON: Newton steps) per frame at most [30] */
+    int max_iter;       /* iterations (NEWTON: the first solve and the Newton steps)
+                           per frame at most [30] */
     double tol;         /* stop when no vertex moves more than this x the
                            target's bounding-box diagonal [1e-6] */
     dtx_mc_solver solver; /* [FIXED_POINT] */

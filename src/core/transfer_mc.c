@@ -83,10 +83,11 @@
  * minimiser (the fixed-point step underestimates it in the sliding
  * directions by the ratio of true to held stiffness), moves no vertex by
  * more than tol x the target diagonal and the full step is taken.
+ * max_iter and the frame's iteration count include the first solve.
  * Measured (core.multicomponent, cat -> lion targets): the lion with a
- * shirt converges in 5-10 Newton steps (26-73 back-substitutions) where
+ * shirt converges in 4-9 Newton steps (26-73 back-substitutions) where
  * the fixed-point iteration needs up to 31; the pebble lion with the
- * paper's absolute lengths in 11-18 steps; the pebble lion with relative
+ * paper's absolute lengths in 10-17 steps; the pebble lion with relative
  * lengths (cracks of near-zero rest length, whose tangential curvature
  * swings from negative to large within a fraction of the crack width)
  * converges linearly and stops at max_iter.
