@@ -441,7 +441,7 @@ static void test_garment(void)
     dtx_error err;
     dtx_mc_info info;
     double *res = NULL, *res2 = NULL, worst = 0.0, cs, fs;
-    int itmax, nconv;
+    int itmax, nconv, sanitized;
     if (dtx_gen_garment(&lion, 2, 0.45, 0.72, 0.01, &gar, &map, &err) != DTX_OK) {
         CHECK_OK(err.code, &err);
         return;
@@ -494,9 +494,12 @@ static void test_garment(void)
         CHECK_DBL(wb, <=, 0.02);
         free(ident);
     }
-    /* With room, every frame meets tol and says so. */
-    if (run_mc(&gar, &mk, 1.5, DTX_MC_LENGTHS_RELATIVE, 200, &nconv, res, &info, &cs, &fs,
-               &itmax)) {
+    /* With room, every frame meets tol and says so (the plain pass only: the
+     * sanitizer pass compares Newton with the result at max_iter 30, which
+     * is as close). */
+    sanitized = getenv("DTX_SANITIZED") && strcmp(getenv("DTX_SANITIZED"), "1") == 0;
+    if (!sanitized && run_mc(&gar, &mk, 1.5, DTX_MC_LENGTHS_RELATIVE, 200, &nconv, res, &info,
+                             &cs, &fs, &itmax)) {
         printf("lion + garment, max_iter 200: %d of %d frames converged, <= %d iterations\n",
                nconv, NPOSE, itmax);
         CHECK_EQ_INT(nconv, NPOSE);
@@ -504,8 +507,9 @@ static void test_garment(void)
     }
     /* Newton converges within the default max_iter (30), every frame, to
      * the same poses: the fixed-point iteration's at max_iter 200 stopped
-     * within 1e-6 x the diagonal a step, Newton's within 1e-6 of its
-     * estimated minimiser. */
+     * within 1e-6 x the diagonal a step (9.4e-6 apart measured; 1.1e-5 from
+     * the result at max_iter 30), Newton's within 1e-6 of its estimated
+     * minimiser. */
     res2 = malloc(sizeof *res2 * (size_t)NPOSE * 3 * gar.nv);
     run_solver = DTX_MC_SOLVER_NEWTON;
     if (res2 && run_mc(&gar, &mk, 1.5, DTX_MC_LENGTHS_RELATIVE, 0, &nconv, res2, &info, &cs,
@@ -514,8 +518,8 @@ static void test_garment(void)
         for (size_t i = 0; i < (size_t)NPOSE * 3 * gar.nv; i++)
             dmax = fabs(res2[i] - res[i]) > dmax ? fabs(res2[i] - res[i]) : dmax;
         printf("lion + garment, Newton: %d of %d frames converged, <= %d Newton steps, %.3f "
-               "s/frame; max |newton - fixed point at max_iter 200| = %.2e of the diagonal\n",
-               nconv, NPOSE, itmax - 1, fs, dmax / lion_diag);
+               "s/frame; max |newton - fixed point at max_iter %d| = %.2e of the diagonal\n",
+               nconv, NPOSE, itmax - 1, fs, sanitized ? 30 : 200, dmax / lion_diag);
         CHECK_EQ_INT(nconv, NPOSE);
         CHECK_DBL(dmax / lion_diag, <=, 1e-3);
     }
