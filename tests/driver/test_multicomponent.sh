@@ -78,9 +78,9 @@ check "report written" "$DTX" report "$W/np2.h5" --no-pictures
 check "report: the Gauss-Newton solves of each result" test "$(grep -c '^Gauss-Newton solves (frame_stats): ' "$W/np2.report.md")" -eq 3
 # The Newton solver ("solver": "newton") converges on every frame of the
 # shirt within max_iter 30 (frame_stats: converged 1), 1 and 2 threads the
-# same.  The runs add a result for a second name of the poses to the files
-# of 1 thread and 2 threads, whose cached correspondences they reuse.  The
-# plain pass only: the sanitizers make it several times slower.
+# same.  The runs add a result (the poses under a second name) to the files
+# of 1 thread and 2 threads.  The plain pass only: the sanitizers make it
+# several times slower (core.multicomponent runs the solver under them).
 if [[ ${DTX_SANITIZED:-0} != 1 ]]; then
     "$DTX" import sequence "$W/poses" -o "$W/in.h5" --name cat-poses-newton --mesh /meshes/cat --dtype float64
     for out in np1 np1t2; do
