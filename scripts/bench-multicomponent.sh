@@ -15,11 +15,15 @@
 #      per-frame transfer time at 1 and 2 OpenMP threads, Gauss-Newton
 #      iterations, and the distance of each stone vertex from sp04's result on
 #      the unbroken camel;
-#   2. the paper's threshold 1.5, on 8 frames, 2 threads.
+#   2. the paper's threshold 1.5, on 8 frames, 2 threads;
+#   3. with DTX_BENCH_MC_NEWTON=1: threshold 0.5, 8 frames, 2 threads, the
+#      fixed-point and the Newton solver one after the other (frames that
+#      converge, CPU seconds a frame, distances from sp04).
 #   Skipped (exit 0) when the shared data is missing.
 # Environment: DTX_SKIP_SETUP=1 skips scripts/setup.sh; DTX_BUILD_DIR (default
 # build/) is built and used, as by scripts/build.sh; DTX_SHARED_DATA (default
-# ../shared/data next to the repository); DTX_BENCH_MC_PAPER=0 skips step 2.
+# ../shared/data next to the repository); DTX_BENCH_MC_PAPER=0 skips step 2;
+# DTX_BENCH_MC_NEWTON=1 adds step 3.
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$repo"
@@ -48,4 +52,11 @@ OMP_NUM_THREADS=2 "$build"/dtx_bench_mc "$data" --eps 0.5 --frames "$n" --thread
 if [[ ${DTX_BENCH_MC_PAPER:-1} != 0 ]]; then
     echo "== the same with the paper's proximity threshold 1.5, 8 frames"
     OMP_NUM_THREADS=2 "$build"/dtx_bench_mc "$data" --eps 1.5 --frames 8 --threads 2
+fi
+
+if [[ ${DTX_BENCH_MC_NEWTON:-0} == 1 ]]; then
+    for solver in fixed-point newton; do
+        echo "== proximity threshold 0.5, 8 frames, solver $solver"
+        OMP_NUM_THREADS=2 "$build"/dtx_bench_mc "$data" --eps 0.5 --frames 8 --threads 2 --solver "$solver"
+    done
 fi

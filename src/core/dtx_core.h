@@ -253,6 +253,15 @@ double dtx_sp04_plan_factor_seconds(const dtx_sp04_plan *plan);
 typedef enum { DTX_MC_LENGTHS_RELATIVE = 0, DTX_MC_LENGTHS_DIAGONAL = 1 } dtx_mc_lengths;
 #define DTX_MC_W_PROXIMITY_DIAGONAL 0.1
 
+/* How a frame is solved (transfer_mc.c):
+ *  FIXED_POINT: the fixed-point iteration on the factored matrix with
+ *    Anderson acceleration; an iteration is one back-substitution.  The
+ *    default.
+ *  NEWTON: Newton steps on the full energy with a backtracking line search,
+ *    each step solved by conjugate gradients preconditioned with the
+ *    factored matrix (up to 40 back-substitutions a step). */
+typedef enum { DTX_MC_SOLVER_FIXED_POINT = 0, DTX_MC_SOLVER_NEWTON = 1 } dtx_mc_solver;
+
 typedef struct {
     double w_match;     /* E1, matched gradients [1] */
     double w_orphan;    /* E2, orphan-triangle smoothness over one-rings [1] */
@@ -260,9 +269,11 @@ typedef struct {
     dtx_mc_lengths lengths; /* E3's measure of a length change [RELATIVE] */
     double w_laplacian; /* E4, Laplacian-coordinate lengths of orphan components [1] */
     double eps_factor;  /* proximity threshold: this x a component's longest edge [1.5] */
-    int max_iter;       /* Gauss-Newton iterations per frame at most [30] */
+    int max_iter;       /* iterations (NEWTON: the first solve and the Newton steps)
+                           per frame at most [30] */
     double tol;         /* stop when no vertex moves more than this x the
                            target's bounding-box diagonal [1e-6] */
+    dtx_mc_solver solver; /* [FIXED_POINT] */
 } dtx_mc_params;
 
 /* The paper's values, except E3's measure (RELATIVE, weight 3). */

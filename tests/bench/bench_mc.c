@@ -21,6 +21,7 @@
  *   --threads LIST   thread counts of the transfer runs, e.g. 1,2 [1,2]
  *   --max-iter N     Gauss-Newton iterations per frame at most [the default, 30]
  *   --tol T          stopping tolerance, fraction of the diagonal [the default, 1e-6]
+ *   --solver S       fixed-point or newton [the default, fixed-point]
  *   --no-check       skip the comparison with sp04 on the unbroken target
  *
  * Prints: sizes; proximity graph; correspondence seconds (wall and CPU;
@@ -51,7 +52,7 @@
 #define MAX_THREAD_RUNS 8
 
 typedef struct {
-    int pieces, subdivide, frames, check, max_iter;
+    int pieces, subdivide, frames, check, max_iter, newton;
     double gap, thickness, eps, tol;
     int nthreads, threads[MAX_THREAD_RUNS];
 } options;
@@ -118,7 +119,7 @@ static void usage(void)
             "usage: dtx_bench_mc DATA_DIR [--pieces N] [--gap G] [--thickness T] "
             "[--subdivide L]\n"
             "                    [--eps E] [--frames N] [--threads 1,2] [--max-iter N] [--tol T]\n"
-            "                    [--no-check]\n");
+            "                    [--solver fixed-point|newton] [--no-check]\n");
     exit(2);
 }
 
@@ -132,6 +133,7 @@ static void parse(int argc, char **argv, options *o)
     o->frames = 0;
     o->check = 1;
     o->max_iter = 0;
+    o->newton = 0;
     o->tol = -1.0;
     o->nthreads = 2;
     o->threads[0] = 1;
@@ -159,6 +161,9 @@ static void parse(int argc, char **argv, options *o)
             o->frames = atoi(v);
         else if (strcmp(a, "--max-iter") == 0)
             o->max_iter = atoi(v);
+        else if (strcmp(a, "--solver") == 0 && v &&
+                 (strcmp(v, "newton") == 0 || strcmp(v, "fixed-point") == 0))
+            o->newton = strcmp(v, "newton") == 0;
         else if (strcmp(a, "--tol") == 0)
             o->tol = atof(v);
         else if (strcmp(a, "--threads") == 0) {
@@ -214,6 +219,8 @@ int main(int argc, char **argv)
     prm.eps_factor = o.eps;
     if (o.max_iter > 0)
         prm.max_iter = o.max_iter;
+    if (o.newton)
+        prm.solver = DTX_MC_SOLVER_NEWTON;
     if (o.tol >= 0.0)
         prm.tol = o.tol;
     max_threads = omp_get_max_threads();
@@ -235,9 +242,9 @@ int main(int argc, char **argv)
     diag = dtx_bbox_diagonal(peb.V, peb.nv);
 
     printf("%s -> pebble %s: %d pieces, gap %g, thickness %g, subdivide %d, eps %g, max_iter %d, "
-           "tol %g\n",
+           "tol %g, solver %s\n",
            ds.src_name, ds.tgt_name, o.pieces, o.gap, o.thickness, o.subdivide, o.eps, prm.max_iter,
-           prm.tol);
+           prm.tol, o.newton ? "newton" : "fixed-point");
     printf("  source %d vertices, %d triangles, %d frames (%d poses)\n", (int)ds.src.nv,
            (int)ds.src.nf, nf, ds.nposes);
     printf("  target %d vertices, %d triangles (unbroken: %d, %d), %d markers; "

@@ -895,13 +895,15 @@ static void test_multicomponent_params(void)
         const char *obj;
         int lengths;
         double w;
+        int solver;
     } cases[] = {
-        {"{}", DTX_MC_LENGTHS_RELATIVE, 3.0},
-        {"{\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL, 0.1},
-        {"{\"w_proximity\":2,\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL,
-         2.0},
-        {"{\"proximity_lengths\":\"relative\",\"w_proximity\":0.5}", DTX_MC_LENGTHS_RELATIVE,
-         0.5},
+        {"{}", DTX_MC_LENGTHS_RELATIVE, 3.0, DTX_MC_SOLVER_FIXED_POINT},
+        {"{\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL, 0.1,
+         DTX_MC_SOLVER_FIXED_POINT},
+        {"{\"w_proximity\":2,\"proximity_lengths\":\"diagonal\",\"solver\":\"newton\"}",
+         DTX_MC_LENGTHS_DIAGONAL, 2.0, DTX_MC_SOLVER_NEWTON},
+        {"{\"proximity_lengths\":\"relative\",\"w_proximity\":0.5,\"solver\":\"fixed-point\"}",
+         DTX_MC_LENGTHS_RELATIVE, 0.5, DTX_MC_SOLVER_FIXED_POINT},
     };
     dtx_job job;
     dtx_error err_, *err = &err_;
@@ -918,15 +920,21 @@ static void test_multicomponent_params(void)
         CHECK_OK(parse(mc, "/data", 0, &job, err), err);
         CHECK_EQ_INT(job.mc.lengths, cases[i].lengths);
         CHECK(job.mc.w_proximity == cases[i].w);
+        CHECK_EQ_INT(job.mc.solver, cases[i].solver);
         p = dtx_job_params_json(&job);
         CHECK(p && strstr(p, cases[i].lengths == DTX_MC_LENGTHS_DIAGONAL
                                  ? "\"proximity_lengths\":\"diagonal\""
                                  : "\"proximity_lengths\":\"relative\"") != NULL);
+        CHECK(p && strstr(p, cases[i].solver == DTX_MC_SOLVER_NEWTON
+                                 ? "\"solver\":\"newton\""
+                                 : "\"solver\":\"fixed-point\"") != NULL);
         free(p);
         dtx_job_free(&job);
     }
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"multicomponent\":{\"proximity_lengths\":\"absolute\"}"),
                 "at /multicomponent/proximity_lengths:");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"multicomponent\":{\"solver\":\"lm\"}"),
+                "at /multicomponent/solver:");
 }
 
 /* The fuzzer's seed inputs: bad-*.json are rejected with a message that
