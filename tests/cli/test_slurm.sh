@@ -6,7 +6,8 @@
 #   1. submits the batch script (2 ranks through mpirun) and compares the
 #      result with the same job run directly (dtx diff --tol 0);
 #   2. submits a job array (--list: one array task per clip group, the
-#      groups' jobs one after another) and compares each result;
+#      groups' jobs one after another, one correspondence store shared) and
+#      compares each result;
 #   3. stops a long job mid-run (scontrol suspend, once frames are marked
 #      done in its partial), requeues it (scontrol requeue: the job is
 #      killed and queued again), and checks that the requeued run resumed
@@ -156,9 +157,9 @@ with h5py.File(path, "a") as f:
     g.attrs["rest_mesh"] = "/meshes/cat"
     g.attrs["nframes"] = np.int32(n)
 PY
-job() { # job NAME SEQUENCES(JSON list): NAME.json writing NAME.h5
+job() { # job NAME SEQUENCES(JSON list) [MORE KEYS]: NAME.json writing NAME.h5
     cat > "$1.json" <<JOB
-{"dtx_job": 1, "method": "sp04",
+{"dtx_job": 1, "method": "sp04", ${3:-}
  "source": {"file": "in.h5", "mesh": "/meshes/cat", "sequences": $2},
  "targets": [{"name": "lion", "file": "in.h5", "mesh": "/meshes/lion",
               "markers": {"file": "in.h5", "path": "/markers/cat-lion"}}],
@@ -188,7 +189,10 @@ check "batch: the result validates" "$DTX" validate poses.h5 > /dev/null
 # ---- 2. a job array, one task per clip group ----------------------------------
 # Three groups of clips: task 1 runs clip1..clip3 one after another, task 2
 # clip4 and clip5, task 3 clip6.
-for k in 1 2 3 4 5 6; do job "clip$k" "[\"/sequences/clip$k\"]"; done
+# The clips share one correspondence store.
+for k in 1 2 3 4 5 6; do
+    job "clip$k" "[\"/sequences/clip$k\"]" '"correspondence_store": "store",'
+done
 printf '%s\n' "clip1.json clip2.json clip3.json" "clip4.json clip5.json" "clip6.json" > groups.txt
 id=$(submit --array=1-3 --ntasks=1 --cpus-per-task=1 --time=10 "$SB" --list groups.txt --quiet)
 echo "array job $id submitted (3 tasks)"
@@ -200,6 +204,16 @@ direct clips
 for k in 1 2 3 4 5 6; do
     check "array: clip$k equals the direct run's" same "clip$k" "/results/lion/clip$k" clips-direct.h5
 done
+corr_of() { $PY -c 'import json, sys; print(json.load(open(sys.argv[1]))["correspondences"]["lion"])' "$1"; }
+for k in 1 2 3 4 5 6; do
+    eval "corr$k=\$(corr_of clip$k.h5.summary.json)"
+done
+echo "array: correspondences: $corr1 $corr2 $corr3 | $corr4 $corr5 | $corr6"
+# A group's later jobs find the store filled by its first; task 3 starts when
+# a core frees, after task 1 or 2 stored it; tasks 1 and 2 may both compute.
+check "array: clip2, clip3, clip5 and clip6 take the correspondence from the store" \
+    test "$corr2 $corr3 $corr5 $corr6" = "store store store store"
+check "array: one store file for the one character" test "$(ls store | grep -c '\.h5$')" -eq 1
 check "array: 3 task logs, each naming its group's jobs" \
     test "$(grep -l 'exited with 0' dtx-dtx-*.out | wc -l)" -ge 4
 # A line past the end of the list is an error naming the line.
