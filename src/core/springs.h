@@ -91,8 +91,11 @@ void dtx_spring_set_free(dtx_spring_set *s);
 typedef enum {
     DTX_SPRINGS_START_LINEAR = 0, /* rotation-aware linear start on every level,
                                      anchored to the coarser level's solution */
-    DTX_SPRINGS_START_REST = 1    /* the paper's: rest shape on the coarsest level,
+    DTX_SPRINGS_START_REST = 1,   /* the paper's: rest shape on the coarsest level,
                                      the coarser solution prolongated on the others */
+    DTX_SPRINGS_START_SP04 = 2    /* the sp04 transfer of the same frame onto the
+                                     solve mesh, on the fine level only (levels is
+                                     not used) */
 } dtx_springs_start;
 
 typedef struct {
@@ -110,7 +113,10 @@ typedef struct {
                                 diagonal [1e-8] */
     int coarse_max_iter;     /* Newton iterations on each coarse level at most [50] */
     double coarse_tol;       /* as tol, on the coarse levels [1e-5] */
-    dtx_springs_start start; /* [DTX_SPRINGS_START_LINEAR] */
+    dtx_springs_start start; /* [DTX_SPRINGS_START_SP04] */
+    int barrier;             /* keep every solve-mesh triangle that the start has
+                                right side up from inverting (see
+                                dtx_springs_apply) [1] */
     double damping;          /* mu = damping x the mean diagonal of the spring
                                 Hessian is added to its diagonal, so that it is
                                 positive definite despite the rigid motions [1e-10] */
@@ -149,6 +155,11 @@ typedef struct {
     double energy;             /* E of the result (length units) */
     double residual;           /* sqrt(E / sum_e k_e r_T~_e^2): the RMS relative error of
                                   the spring lengths; NaN for a non-finite frame */
+    double grad_norm;          /* Euclidean norm of the gradient of the fine level's
+                                  energy (springs and barrier) at the result; NaN
+                                  for a non-finite frame */
+    int32_t barrier_skipped;   /* solve-mesh triangles left out of the barrier
+                                  because the start has them inverted */
     int32_t inverted;          /* target triangles that are inverted (see
                                   dtx_springs_apply) */
     int32_t first_inverted;    /* the lowest of them, -1 if none */

@@ -46,7 +46,7 @@
 #define MAX_THREAD_RUNS 8
 
 typedef struct {
-    int same, proxy, frames, levels, internal;
+    int same, proxy, frames, levels, internal, max_iter, barrier;
     int starts; /* bit 0: linear, bit 1: rest */
     double amount;
     int nthreads, threads[MAX_THREAD_RUNS];
@@ -164,6 +164,17 @@ static void frame_figures(const dtx_springs_frame_info *fi, int nf)
         inv += fi[f].inverted;
     }
     bench_summary3(BENCH_SUMMARY_G4, "inverted triangles", v, nf, 1.0, "");
+    for (int f = 0; f < nf; f++)
+        v[f] = fi[f].grad_norm;
+    bench_summary3(BENCH_SUMMARY_G4, "final gradient norm", v, nf, 1.0, "");
+    for (int f = 0; f < nf; f++)
+        v[f] = fi[f].barrier_skipped;
+    bench_summary3(BENCH_SUMMARY_G4, "triangles folded at the start", v, nf, 1.0, "");
+    printf("    per frame (iterations, converged, gradient norm, inverted):");
+    for (int f = 0; f < nf; f++)
+        printf(" (%d, %d, %.2g, %d)", (int)fi[f].iterations, (int)fi[f].converged, fi[f].grad_norm,
+               (int)fi[f].inverted);
+    printf("\n");
     printf("    converged %d of %d frames; %ld inverted triangles in all\n", conv, nf, inv);
     free(v);
 }
@@ -197,6 +208,8 @@ static void parse(int argc, char **argv, options *o)
     o->same = o->proxy = 1;
     o->frames = 0;
     o->levels = -1;
+    o->max_iter = -1;
+    o->barrier = -1;
     o->internal = 1;
     o->amount = 0.15;
     o->starts = 3;
@@ -223,7 +236,11 @@ static void parse(int argc, char **argv, options *o)
                                                  : 0;
             if (!o->starts)
                 usage();
-        } else if (strcmp(a, "--frames") == 0)
+        } else if (strcmp(a, "--max-iter") == 0)
+            o->max_iter = atoi(v);
+        else if (strcmp(a, "--barrier") == 0)
+            o->barrier = atoi(v);
+        else if (strcmp(a, "--frames") == 0)
             o->frames = atoi(v);
         else if (strcmp(a, "--levels") == 0)
             o->levels = atoi(v);
@@ -274,6 +291,10 @@ int main(int argc, char **argv)
     prm.internal = o.internal;
     if (o.levels >= 0)
         prm.levels = o.levels;
+    if (o.max_iter >= 0)
+        prm.max_iter = o.max_iter;
+    if (o.barrier >= 0)
+        prm.barrier = o.barrier;
     diag_t = dtx_bbox_diagonal(ds.tgt.V, ds.tgt.nv);
     printf("%s -> %s: source %d vertices, target %d vertices, %d frames (%d poses)\n", ds.src_name,
            ds.tgt_name, (int)ds.src.nv, (int)ds.tgt.nv, nf, ds.nposes);
