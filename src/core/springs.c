@@ -2,6 +2,10 @@
  * springs.c: deformation transfer by stretchiness ratios on mass-spring
  * systems (Yang, Ma & Ouhyoung; see springs.h for the method and the API).
  *
+ * (The barrier, the sp04 start and the share theta of the indefinite
+ * part that Newton keeps are described in springs.h; below, "projected"
+ * is theta = 0 and "exact" theta = 1.)
+ *
  * Newton.  For E(x) = sum_e k_e (l_e - r_e)^2, l_e = |x_i - x_j|, d = (x_i -
  * x_j) / l_e, the gradient at x_i is 2 k (l - r) d and the Hessian block
  *     K_e = 2 k [ d d^T + (1 - r/l) (I - d d^T) ]
@@ -1809,6 +1813,21 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += 100.0 * L->mu * attempt;
             fst = factorize(&A, lw->L, cc);
         }
+        /* A barrier term that has grown huge can defeat that: shifts of
+         * 1e-4 and 1e-1 of the mean diagonal (a shorter, still descending
+         * step). */
+        for (double sh = 1e-4; bt && sh < 1.0 && fst == DTX_ESOLVE; sh *= 1000.0) {
+            for (int32_t f = 0; f < L->nfree; f++)
+                for (int c = 0; c < 3; c++)
+                    lw->Hx[L->colp[3 * f + c + 1] - 1] += sh * 2.0 * L->kmean;
+            fst = factorize(&A, lw->L, cc);
+        }
+        if (fst == DTX_ESOLVE && bt) {
+            /* Rounding in a barrier term that has grown huge: the iterate
+             * is a valid shape with every triangle of the barrier right side
+             * up, so it is kept (not converged). */
+            break;
+        }
         if (fst != DTX_OK) {
             res->failed = 1;
             return;
@@ -1851,6 +1870,8 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             const double *d = dx + 3 * (size_t)f;
             dmax2 = fmax(dmax2, dot3(d, d));
         }
+        if (!isfinite(dmax2))
+            break; /* as a failed factorisation: the iterate is kept */
         for (size_t i = 0; i < n3; i++)
             slope += lw->g[i] * dx[i];
         if (!(slope < 0.0)) {
