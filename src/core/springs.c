@@ -1412,14 +1412,16 @@ static void assemble(const level *L, const double *rtil, const double *x, double
  * source triangle (as dtx_springs_apply counts inversions), so s_t = a_t /
  * A_t is 1 at rest and 0 when the triangle stands at 90 degrees to where
  * the source turns it (or has collapsed).  Its term is
- *     kappa_t b(s_t),  b(s) = -(s - SHAT)^2 log(s / SHAT) for 0 < s < SHAT,
- * 0 for s >= SHAT and +inf for s <= 0 (the C2 barrier of incremental
+ *     kappa_t b(s_t),  b(s) = -(s - h_t)^2 log(s / h_t) for 0 < s < h_t,
+ * 0 for s >= h_t and +inf for s <= 0 (the C2 barrier of incremental
  * potential contact), kappa_t = sqrt(A_t) (length units, like a spring's
- * term).  It is zero on every triangle that keeps a tenth of its area in
- * the expected orientation, so it changes the springs' equilibrium only
- * where a triangle would otherwise fold; and since the energy is +inf on
- * a folded triangle, a line search that accepts only decreases never
- * reaches one.  b is convex on (0, SHAT) (b'' > 0): the projected Hessian
+ * term), h_t = BARRIER_SHAT min(1, the source triangle's area ratio in the
+ * frame).  It is zero on every triangle that keeps a tenth of the area its
+ * source triangle keeps, in the expected orientation, so it changes the
+ * springs' equilibrium only where a triangle would otherwise fold (and
+ * T = S, whose s_t are the source's, never meets it); since the energy is
+ * +inf on a folded triangle, a line search that accepts only decreases
+ * never reaches one.  b is convex on (0, h_t) (b'' > 0): the projected Hessian
  * keeps b'' grad a grad a^T, the exact one adds b' times a's (constant,
  * indefinite) Hessian. */
 #define BARRIER_SHAT 0.1
