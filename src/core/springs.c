@@ -54,8 +54,8 @@
 
 #include <cholmod.h>
 #include <math.h>
-#include <stddef.h>
 #include <stdio.h>
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 #ifdef _OPENMP

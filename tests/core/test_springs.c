@@ -725,8 +725,7 @@ static void test_cat_lion(const char *dir)
         exact += d < 1e-8;
         inv += fi[k].inverted;
         CHECK(fi[k].converged);
-        printf(" %d: %.1e%% %d %d;", self_poses[k], 100.0 * d, (int)fi[k].iterations,
-               (int)fi[k].inverted);
+        printf(" %d: %.1e%% %d %d;", self_poses[k], 100.0 * d, (int)fi[k].iterations, (int)fi[k].inverted);
     }
     printf("\n  %d of 3 poses reproduced to 1e-8 of the diagonal; the others end in a local "
            "minimum with a small fold (worst %.2f%%, %d inverted triangles in all)\n",

@@ -26,8 +26,8 @@
 /* ------------------------------------------------------------------ */
 
 #define SRC_OK "{\"file\":\"in.h5\",\"mesh\":\"/meshes/cat\",\"sequences\":[\"/sequences/walk\"]}"
-#define TGT_OK                                                                        \
-    "[{\"file\":\"in.h5\",\"mesh\":\"/meshes/lion\",\"markers\":{\"file\":\"in.h5\"," \
+#define TGT_OK                                                                                 \
+    "[{\"file\":\"in.h5\",\"mesh\":\"/meshes/lion\",\"markers\":{\"file\":\"in.h5\","          \
     "\"path\":\"/markers/cat-lion\"}}]"
 #define OUT_OK "{\"file\":\"out.h5\"}"
 
@@ -65,13 +65,13 @@ static void expect_fail_(const char *text, const char *base, int check_files, dt
         check_passed_++;
     } else {
         check_failed_++;
-        fprintf(stderr, "%s:%d: %s\n  expected %s containing: %s\n  got      %s: %s\n", file, line,
-                text, dtx_status_name(code), want, dtx_status_name(st), err->msg);
+        fprintf(stderr, "%s:%d: %s\n  expected %s containing: %s\n  got      %s: %s\n", file,
+                line, text, dtx_status_name(code), want, dtx_status_name(st), err->msg);
     }
     dtx_job_free(&job);
 }
 
-#define EXPECT_FAIL(text, want) \
+#define EXPECT_FAIL(text, want)                                                                \
     expect_fail_(text, "/data/jobs", 0, DTX_EJOB, want, __FILE__, __LINE__)
 
 static char *read_file(const char *path, size_t *len)
@@ -156,7 +156,7 @@ static void test_schema_defaults(void)
     dtx_error err_, *err = &err_;
     int i = 0;
 
-#define DEFAULT_OF(props, key) \
+#define DEFAULT_OF(props, key)                                                                 \
     cJSON_GetObjectItemCaseSensitive(cJSON_GetObjectItemCaseSensitive(props, key), "default")
 
     CHECK(sp != NULL && out != NULL && tgt != NULL);
@@ -172,8 +172,7 @@ static void test_schema_defaults(void)
     d = DEFAULT_OF(sp, "w_closest");
     CHECK(cJSON_IsArray(d));
     CHECK_EQ_INT(cJSON_GetArraySize(d), job.sp04.n_closest);
-    cJSON_ArrayForEach(w, d)
-    {
+    cJSON_ArrayForEach(w, d) {
         CHECK(i < job.sp04.n_closest && w->valuedouble == job.sp04.w_closest[i]);
         i++;
     }
@@ -295,8 +294,8 @@ static void test_defaults(void)
     dtx_job_free(&job);
 
     /* Given sp04 keys override one by one; the others keep defaults. */
-    CHECK_OK(parse(job_text(NULL, NULL, NULL, ",\"sp04\":{\"max_distance\":0.05}"), "/data/jobs", 0,
-                   &job, err),
+    CHECK_OK(parse(job_text(NULL, NULL, NULL, ",\"sp04\":{\"max_distance\":0.05}"), "/data/jobs",
+                   0, &job, err),
              err);
     CHECK(job.sp04.max_distance == 0.05);
     CHECK(job.sp04.w_smooth == 1.0);
@@ -342,7 +341,8 @@ static void test_defaults(void)
     dtx_job_free(&job);
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"anything\":1}"),
                 "at /springs: unknown key \"anything\"");
-    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"levels\":9}"), "at /springs/levels:");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"levels\":9}"),
+                "at /springs/levels:");
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"start\":\"coarse\"}"),
                 "at /springs/start: expected one of sp04, linear, rest");
 }
@@ -387,7 +387,8 @@ static void test_demo_job(void)
         free(src);
         return;
     }
-    CHECK_OK(dtx_job_parse(text, len, "jobs/cat-lion.json", DTX_SRC "/jobs", 0, &job, err), err);
+    CHECK_OK(dtx_job_parse(text, len, "jobs/cat-lion.json", DTX_SRC "/jobs", 0, &job, err),
+             err);
     CHECK_EQ_INT(job.method, DTX_METHOD_SP04);
     snprintf(want, sizeof want, "%s/build/demo/cat-lion.h5", src);
     CHECK(job.source_file && strcmp(job.source_file, want) == 0);
@@ -426,8 +427,7 @@ static void test_unknown_keys(void)
     EXPECT_FAIL(job_text("{\"file\":\"a.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"],"
                          "\"frames\":3}",
                          NULL, NULL, NULL),
-                "job.json: at /source: unknown key \"frames\" (allowed: file, mesh, sequences, "
-                "weld_tolerance)");
+                "job.json: at /source: unknown key \"frames\" (allowed: file, mesh, sequences, weld_tolerance)");
     EXPECT_FAIL(job_text(NULL,
                          "[{\"file\":\"a.h5\",\"mesh\":\"/m\",\"markers\":{\"csv\":\"m.csv\","
                          "\"idx_base\":0}}]",
@@ -452,7 +452,8 @@ static void test_schema_violations(void)
     /* Wrong types. */
     EXPECT_FAIL(job_text("{\"file\":5,\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL, NULL, NULL),
                 "job.json: at /source/file: expected a string, got 5");
-    EXPECT_FAIL(job_text("{\"file\":\"a\",\"mesh\":\"/m\",\"sequences\":\"/s\"}", NULL, NULL, NULL),
+    EXPECT_FAIL(job_text("{\"file\":\"a\",\"mesh\":\"/m\",\"sequences\":\"/s\"}", NULL, NULL,
+                         NULL),
                 "at /source/sequences: expected an array, got \"/s\"");
     EXPECT_FAIL(job_text(NULL, "{}", NULL, NULL), "at /targets: expected an array, got an object");
     EXPECT_FAIL(job_text(NULL, NULL, "{\"file\":\"o.h5\",\"block_frames\":8.5}", NULL),
@@ -474,8 +475,7 @@ static void test_schema_violations(void)
         dtx_job job;
         dtx_error e;
         char *m;
-        snprintf(t, sizeof t, "%s",
-                 job_text(NULL, "[{\"file\":\"a.h5\",\"mesh\":\"/m\"}]", NULL, NULL));
+        snprintf(t, sizeof t, "%s", job_text(NULL, "[{\"file\":\"a.h5\",\"mesh\":\"/m\"}]", NULL, NULL));
         m = strstr(t, "\"sp04\"");
         CHECK(m != NULL);
         if (m) {
@@ -556,21 +556,20 @@ static void test_syntax_errors(void)
     dtx_job job;
     dtx_error err_, *err = &err_;
     expect_fail_(missing_colon, "/data", 0, DTX_EPARSE, "job.json:3:", __FILE__, __LINE__);
-    expect_fail_(missing_colon, "/data", 0, DTX_EPARSE, "JSON syntax error", __FILE__, __LINE__);
+    expect_fail_(missing_colon, "/data", 0, DTX_EPARSE, "JSON syntax error", __FILE__,
+                 __LINE__);
     expect_fail_("{\"dtx_job\": 1,\n\"method\": \"sp04\",\n\n\"source\": {,}}", "/data", 0,
                  DTX_EPARSE, "job.json:4:", __FILE__, __LINE__);
     expect_fail_(trailing, "/data", 0, DTX_EPARSE,
                  "job.json:3:3: JSON syntax error: text after the end of the JSON value near 'x'",
                  __FILE__, __LINE__);
-    expect_fail_("{\"dtx_job\": 1,\n \"method\": \"sp", "/data", 0, DTX_EPARSE,
-                 "job.json:2:", __FILE__, __LINE__);
+    expect_fail_("{\"dtx_job\": 1,\n \"method\": \"sp", "/data", 0, DTX_EPARSE, "job.json:2:",
+                 __FILE__, __LINE__);
     expect_fail_("", "/data", 0, DTX_EPARSE, "job.json: empty job file", __FILE__, __LINE__);
     expect_fail_(" \n\t ", "/data", 0, DTX_EPARSE, "job.json: empty job file", __FILE__, __LINE__);
     /* Control bytes are shown escaped. */
-    expect_fail_("{\"a\" 1\x01}", "/data", 0, DTX_EPARSE,
-                 "job.json:1:6: JSON syntax error: "
-                 "unexpected text near '1\\x01}'",
-                 __FILE__, __LINE__);
+    expect_fail_("{\"a\" 1\x01}", "/data", 0, DTX_EPARSE, "job.json:1:6: JSON syntax error: "
+                 "unexpected text near '1\\x01}'", __FILE__, __LINE__);
     /* A length that stops inside the text is honoured (no reading past it). */
     memset(err, 0, sizeof *err);
     CHECK_EQ_INT(dtx_job_parse("{\"dtx_job\": 1}", 5, "job.json", "/data", 0, &job, err),
@@ -686,9 +685,9 @@ static void test_output_vs_inputs(void)
                 "at /output/file: the output file /data/jobs/in.h5 is also an input "
                 "(/source/file)");
     EXPECT_FAIL(job_text(NULL,
-                         "[{\"file\":\"t.h5\",\"mesh\":\"/m\",\"markers\":{\"csv\":\"m.csv\","
-                         "\"index_base\":0}}]",
-                         "{\"file\":\"../jobs/m.csv\"}", NULL),
+                               "[{\"file\":\"t.h5\",\"mesh\":\"/m\",\"markers\":{\"csv\":\"m.csv\","
+                               "\"index_base\":0}}]",
+                               "{\"file\":\"../jobs/m.csv\"}", NULL),
                 "(/targets/0/markers/csv)");
     EXPECT_FAIL(job_text(NULL,
                          "[{\"file\":\"t.h5\",\"mesh\":\"/m\",\"markers\":{\"file\":\"t.h5\","
@@ -708,7 +707,8 @@ static void test_output_vs_inputs(void)
     snprintf(text, sizeof text, "%s", job_text(NULL, NULL, "{\"file\":\"alias.h5\"}", NULL));
     expect_fail_(text, dir, 0, DTX_EJOB, "is also an input (/source/file)", __FILE__, __LINE__);
     /* A distinct output file is fine. */
-    CHECK_OK(parse(job_text(NULL, NULL, "{\"file\":\"new.h5\"}", NULL), dir, 0, &job, err), err);
+    CHECK_OK(parse(job_text(NULL, NULL, "{\"file\":\"new.h5\"}", NULL), dir, 0, &job, err),
+             err);
     dtx_job_free(&job);
 }
 
@@ -769,15 +769,16 @@ static void test_files(void)
     expect_fail_(text, dir, 1, DTX_EJOB, want, __FILE__, __LINE__);
     /* A directory is not an input file. */
     snprintf(text, sizeof text, "%s",
-             job_text("{\"file\":\".\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL, NULL, NULL));
+             job_text("{\"file\":\".\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL, NULL,
+                      NULL));
     expect_fail_(text, dir, 1, DTX_EJOB, "at /source/file: is a directory", __FILE__, __LINE__);
     /* Nor is a FIFO (reading it would block the run). */
     snprintf(path, sizeof path, "%s/fifo.h5", dir);
     unlink(path);
     CHECK(mkfifo(path, 0600) == 0);
     snprintf(text, sizeof text, "%s",
-             job_text("{\"file\":\"fifo.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL, NULL,
-                      NULL));
+             job_text("{\"file\":\"fifo.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL,
+                      NULL, NULL));
     expect_fail_(text, dir, 1, DTX_EJOB, "at /source/file: not a regular file (a FIFO)", __FILE__,
                  __LINE__);
     unlink(path);
@@ -795,8 +796,8 @@ static void test_files(void)
     write_file(path, job_text(NULL, NULL, NULL, ",\"sp04\":{}") /* valid */);
     CHECK_OK(dtx_job_load(path, &job, err), err);
     dtx_job_free(&job);
-    write_file(path, job_text("{\"file\":\"gone.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}", NULL,
-                              NULL, NULL));
+    write_file(path, job_text("{\"file\":\"gone.h5\",\"mesh\":\"/m\",\"sequences\":[\"/s\"]}",
+                              NULL, NULL, NULL));
     CHECK_EQ_INT(dtx_job_load(path, &job, err), DTX_EJOB);
     snprintf(want, sizeof want, "%s: at /source/file: no such file: %s/gone.h5", path, real);
     CHECK(strcmp(err->msg, want) == 0);
@@ -856,8 +857,8 @@ static void test_params_json(void)
     free(q);
     dtx_job_free(&job);
     /* Different parameters give different text. */
-    CHECK_OK(parse(job_text(NULL, NULL, NULL, ",\"sp04\":{\"w_closest\":[1,500,1000]}"), "/data", 0,
-                   &job, err),
+    CHECK_OK(parse(job_text(NULL, NULL, NULL, ",\"sp04\":{\"w_closest\":[1,500,1000]}"), "/data",
+                   0, &job, err),
              err);
     q = dtx_job_params_json(&job);
     CHECK(p && q && strcmp(p, q) != 0);
@@ -902,8 +903,10 @@ static void test_multicomponent_params(void)
     } cases[] = {
         {"{}", DTX_MC_LENGTHS_RELATIVE, 3.0},
         {"{\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL, 0.1},
-        {"{\"w_proximity\":2,\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL, 2.0},
-        {"{\"proximity_lengths\":\"relative\",\"w_proximity\":0.5}", DTX_MC_LENGTHS_RELATIVE, 0.5},
+        {"{\"w_proximity\":2,\"proximity_lengths\":\"diagonal\"}", DTX_MC_LENGTHS_DIAGONAL,
+         2.0},
+        {"{\"proximity_lengths\":\"relative\",\"w_proximity\":0.5}", DTX_MC_LENGTHS_RELATIVE,
+         0.5},
     };
     dtx_job job;
     dtx_error err_, *err = &err_;
@@ -927,9 +930,8 @@ static void test_multicomponent_params(void)
         free(p);
         dtx_job_free(&job);
     }
-    EXPECT_FAIL(
-        job_text(NULL, NULL, NULL, ",\"multicomponent\":{\"proximity_lengths\":\"absolute\"}"),
-        "at /multicomponent/proximity_lengths:");
+    EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"multicomponent\":{\"proximity_lengths\":\"absolute\"}"),
+                "at /multicomponent/proximity_lengths:");
 }
 
 /* The fuzzer's seed inputs: bad-*.json are rejected with a message that
@@ -985,8 +987,7 @@ static void test_fuzz_regressions(void)
     /* The fuzzer's input, reduced: an unknown key in /source. */
     snprintf(src, sizeof src, "{\"%s\":\"x\",\"file\":\"in.h5\"}", ctl);
     EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "job.json: at /source: unknown key \"\\u000d");
-    EXPECT_FAIL(job_text(src, NULL, NULL, NULL),
-                "\\u000d...\" (allowed: file, mesh, sequences, weld_tolerance)");
+    EXPECT_FAIL(job_text(src, NULL, NULL, NULL), "\\u000d...\" (allowed: file, mesh, sequences, weld_tolerance)");
     /* A value (in "got ...") and a top-level key. */
     snprintf(extra, sizeof extra, ",\"sp04\":{\"w_smooth\":\"%s\"}", ctl);
     EXPECT_FAIL(job_text(NULL, NULL, NULL, extra),
@@ -1018,8 +1019,8 @@ static void test_fuzz_regressions(void)
 static void test_target_name_rule(void)
 {
     static const char *const names[] = {
-        "lion", "Lion_2.v-1", "a", "-", "_", ".x", ".d", ".dt", ".dtx", ".dtxa", ".dtx.", "..x",
-        "...", "a.dtx-", "x..", ".e", ".c",
+        "lion", "Lion_2.v-1", "a", "-", "_", ".x", ".d", ".dt", ".dtx", ".dtxa", ".dtx.",
+        "..x", "...", "a.dtx-", "x..", ".e", ".c",
         /* rejected */
         ".", "..", ".dtx-", ".dtx-tmp-lion", ".dtx-x", "", "big lion", "a/b", "tab\there"};
     char targets[2048], longname[300];
@@ -1052,8 +1053,8 @@ static void test_target_name_rule(void)
             dtx_job_free(&job);
         if (got != want)
             fprintf(stderr, "target name \"%.40s\": the rule says %s, the job parser says %s%s%s\n",
-                    nm, want ? "valid" : "invalid", got ? "valid" : "invalid", got ? "" : ": ",
-                    got ? "" : err.msg);
+                    nm, want ? "valid" : "invalid", got ? "valid" : "invalid",
+                    got ? "" : ": ", got ? "" : err.msg);
         CHECK_EQ_INT(got, want);
         /* The schema alone (before job.c's check) already rejects a bad
          * name, naming the pointer. */
