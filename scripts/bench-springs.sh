@@ -6,10 +6,12 @@
 #
 # Usage: scripts/bench-springs.sh
 #   1. lion-sized (5,000 vertices): the lion rest -> sp04 lion poses onto a
-#      thicker lion, both starts (linear, the paper's rest), single level and
-#      multigrid, 1 thread (tests/bench/bench_springs.c --run same);
+#      thicker lion: the sp04 start with the barrier, and both older starts
+#      (linear, the paper's rest) single level and multigrid, 1 thread
+#      (tests/bench/bench_springs.c --run same);
 #   2. cat -> lion through the sp04 proxy, nine poses, against the paper's
-#      results (--run proxy);
+#      results: the sp04 start with the barrier and the linear start without
+#      it, in one run (--run proxy);
 #   3. camel-sized (21,887 vertices, shared data): as 1 with the linear start
 #      on 2 frames (single level takes about a minute a frame);
 #   4. `dtx run` of a springs job (cat -> cat made thicker with longer legs,

@@ -2,6 +2,10 @@
  * springs.c: deformation transfer by stretchiness ratios on mass-spring
  * systems (Yang, Ma & Ouhyoung; see springs.h for the method and the API).
  *
+ * (The barrier, the sp04 start and the share theta of the indefinite
+ * part that Newton keeps are described in springs.h; below, "projected"
+ * is theta = 0 and "exact" theta = 1.)
+ *
  * Newton.  For E(x) = sum_e k_e (l_e - r_e)^2, l_e = |x_i - x_j|, d = (x_i -
  * x_j) / l_e, the gradient at x_i is 2 k (l - r) d and the Hessian block
  *     K_e = 2 k [ d d^T + (1 - r/l) (I - d d^T) ]
@@ -69,7 +73,8 @@ void dtx_springs_params_default(dtx_springs_params *p)
     p->tol = 1e-8;
     p->coarse_max_iter = 50;
     p->coarse_tol = 1e-5;
-    p->start = DTX_SPRINGS_START_LINEAR;
+    p->start = DTX_SPRINGS_START_SP04;
+    p->barrier = 1;
     p->damping = 1e-10;
 }
 
@@ -462,12 +467,17 @@ typedef struct {
     double *rtil;   /* springs.n: the frame's rest lengths */
     cholmod_factor *L;
     cholmod_dense *B, *X, *Y, *E;
+    cholmod_dense *C, *Z, *ZY, *ZE; /* fine level with the barrier: the rigid
+                                       motions (6 columns) and H^-1 of them */
 } level_work;
 
 typedef struct {
     cholmod_common cc;
     level_work lw[DTX_SPRINGS_MAX_LEVELS + 1];
-    double *rot; /* 9 x (largest level): per-vertex rotations */
+    double *rot;       /* 9 x (largest level): per-vertex rotations */
+    double *tm;        /* nf_s x 3: the frame's expected unit normals (barrier) */
+    double *tsh;       /* nf_s: the frame's barrier thresholds */
+    unsigned char *on; /* nf_s: triangle in the frame's barrier */
 } worker;
 
 struct dtx_springs_plan {
@@ -501,6 +511,19 @@ struct dtx_springs_plan {
     level lev[DTX_SPRINGS_MAX_LEVELS + 1];
     int32_t max_level_n; /* vertices of the largest level */
 
+    /* Barrier over the solve mesh's triangles (Fs on the fine level). */
+    int barrier;
+    double *tri_n0;    /* nf_s x 3: rest unit normals of the solve mesh */
+    double *tri_area;  /* nf_s: rest double areas (0: not in the barrier) */
+    double *tri_kappa; /* nf_s: barrier weights */
+    int32_t *tri_sp;   /* nf_s x 3: edge springs (0,1), (1,2), (2,0), or -1 */
+
+    /* sp04 start: sp04 from the source onto the solve mesh (identity pairs)
+     * and the starts of the frames of the current apply. */
+    dtx_sp04_plan *sp04;
+    double *starts;
+    int64_t starts_cap; /* frames starts holds */
+
     int max_iter, coarse_max_iter;
     double tol, coarse_tol;
     dtx_springs_start start;
@@ -530,8 +553,15 @@ static void fini_worker(void *plan, void *workspace)
         cholmod_free_dense(&lw->X, &k->cc);
         cholmod_free_dense(&lw->Y, &k->cc);
         cholmod_free_dense(&lw->E, &k->cc);
+        cholmod_free_dense(&lw->C, &k->cc);
+        cholmod_free_dense(&lw->Z, &k->cc);
+        cholmod_free_dense(&lw->ZY, &k->cc);
+        cholmod_free_dense(&lw->ZE, &k->cc);
     }
     free(k->rot);
+    free(k->tm);
+    free(k->tsh);
+    free(k->on);
     cholmod_finish(&k->cc);
 }
 
@@ -580,6 +610,12 @@ void dtx_springs_plan_free(dtx_springs_plan **pp)
     free(p->bind_off);
     free(p->pins);
     free(p->pin_pos);
+    free(p->tri_n0);
+    free(p->tri_area);
+    free(p->tri_kappa);
+    free(p->tri_sp);
+    dtx_sp04_plan_free(&p->sp04);
+    free(p->starts);
     free(p);
     *pp = NULL;
 }
@@ -808,13 +844,15 @@ static dtx_status check_args(const dtx_mesh *src, const dtx_mesh *tgt, const dou
                              const double *pin_pos, int32_t npins, dtx_error *err)
 {
     if (!(prm->levels >= 0 && prm->levels <= DTX_SPRINGS_MAX_LEVELS) || prm->coarse_min < 3 ||
-        (prm->start != DTX_SPRINGS_START_LINEAR && prm->start != DTX_SPRINGS_START_REST) ||
-        prm->max_iter < 0 || prm->coarse_max_iter < 0 || !(prm->tol >= 0.0) ||
-        !(prm->coarse_tol >= 0.0) || !(prm->damping > 0.0 && prm->damping < 1.0))
+        (prm->start != DTX_SPRINGS_START_LINEAR && prm->start != DTX_SPRINGS_START_REST &&
+         prm->start != DTX_SPRINGS_START_SP04) ||
+        (prm->barrier != 0 && prm->barrier != 1) || prm->max_iter < 0 || prm->coarse_max_iter < 0 ||
+        !(prm->tol >= 0.0) || !(prm->coarse_tol >= 0.0) ||
+        !(prm->damping > 0.0 && prm->damping < 1.0))
         return dtx_seterr(err, DTX_EINVAL,
                           "springs parameters out of range (levels 0..%d, coarse_min >= 3, "
-                          "start linear or rest, max_iter and coarse_max_iter >= 0, tol and "
-                          "coarse_tol >= 0, 0 < damping < 1)",
+                          "start linear, rest or sp04, barrier 0 or 1, max_iter and "
+                          "coarse_max_iter >= 0, tol and coarse_tol >= 0, 0 < damping < 1)",
                           DTX_SPRINGS_MAX_LEVELS);
     if (anchor != DTX_ANCHOR_FIXED && anchor != DTX_ANCHOR_FOLLOW && anchor != DTX_ANCHOR_PINS)
         return dtx_seterr(err, DTX_EINVAL, "unknown translation mode %d", (int)anchor);
@@ -1042,7 +1080,8 @@ static dtx_status build_levels(dtx_springs_plan *p, const double *Vr, const dtx_
         goto nomem;
     p->max_level_n = L0->n;
 
-    while (p->nlev <= prm->levels) {
+    /* The sp04 start is made on the fine level: no hierarchy. */
+    while (p->nlev <= (prm->start == DTX_SPRINGS_START_SP04 ? 0 : prm->levels)) {
         level *F = &p->lev[p->nlev - 1], *C = &p->lev[p->nlev];
         dtx_coarse_level cl;
         st = dtx_coarsen(F->n, &F->springs, &cl, err);
@@ -1091,6 +1130,88 @@ nomem:
     st = dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
 fail:
     free(fixed);
+    return st;
+}
+
+/* The spring of level L joining vertices i and j, or -1. */
+static int32_t find_spring(const level *L, int32_t i, int32_t j)
+{
+    const int32_t a = i < j ? i : j, b = i < j ? j : i;
+    int32_t lo = 0, hi = L->springs.n;
+    while (lo < hi) {
+        const int32_t mid = lo + (hi - lo) / 2;
+        const int32_t *e = L->springs.ends + 2 * (size_t)mid;
+        if (e[0] < a || (e[0] == a && e[1] < b))
+            lo = mid + 1;
+        else
+            hi = mid;
+    }
+    if (lo < L->springs.n && L->springs.ends[2 * (size_t)lo] == a &&
+        L->springs.ends[2 * (size_t)lo + 1] == b)
+        return lo;
+    return -1;
+}
+
+/* The barrier's triangles: the solve mesh's (positions Vr, faces Fs) with
+ * their rest normals, double areas, weights and edge springs.  A triangle
+ * of (near) zero area or with an edge whose spring was dropped is left
+ * out (area 0). */
+static dtx_status build_barrier(dtx_springs_plan *p, const double *Vr, dtx_error *err)
+{
+    const level *L0 = &p->lev[0];
+    const double diag = L0->diag;
+    p->tri_n0 = dtx_alloc((size_t)p->nf_s, 3 * sizeof *p->tri_n0, 1);
+    p->tri_area = dtx_alloc((size_t)p->nf_s, sizeof *p->tri_area, 1);
+    p->tri_kappa = dtx_alloc((size_t)p->nf_s, sizeof *p->tri_kappa, 1);
+    p->tri_sp = dtx_alloc((size_t)p->nf_s, 3 * sizeof *p->tri_sp, 0);
+    if (!p->tri_n0 || !p->tri_area || !p->tri_kappa || !p->tri_sp)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
+    for (int32_t t = 0; t < p->nf_s; t++) {
+        const int32_t *tri = p->Fs + 3 * (size_t)t;
+        double e1[3], e2[3], n[3], A;
+        int ok = 1;
+        sub3(Vr + 3 * (size_t)tri[1], Vr + 3 * (size_t)tri[0], e1);
+        sub3(Vr + 3 * (size_t)tri[2], Vr + 3 * (size_t)tri[0], e2);
+        cross3(e1, e2, n);
+        A = sqrt(dot3(n, n));
+        for (int k = 0; k < 3; k++) {
+            p->tri_sp[3 * (size_t)t + k] = find_spring(L0, tri[k], tri[(k + 1) % 3]);
+            ok = ok && p->tri_sp[3 * (size_t)t + k] >= 0;
+        }
+        if (!ok || !(A > 1e-12 * diag * diag))
+            continue;
+        for (int k = 0; k < 3; k++)
+            p->tri_n0[3 * (size_t)t + k] = n[k] / A;
+        p->tri_area[t] = A;
+        /* Length units, like a spring's k (l - r)^2 with k = 1 / r. */
+        p->tri_kappa[t] = sqrt(A);
+    }
+    return DTX_OK;
+}
+
+/* The sp04 start: sp04 from src onto the solve mesh (positions Vr, the
+ * source's faces; every triangle paired with itself). */
+static dtx_status build_sp04_start(dtx_springs_plan *p, const dtx_mesh *src, const double *Vr,
+                                   dtx_error *err)
+{
+    dtx_mesh sm;
+    dtx_status st;
+    int32_t *pairs = dtx_alloc((size_t)p->nf_s, 2 * sizeof *pairs, 0);
+    if (!pairs)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
+    for (int32_t t = 0; t < p->nf_s; t++)
+        pairs[2 * (size_t)t] = pairs[2 * (size_t)t + 1] = t;
+    sm.nv = p->nv_s;
+    sm.nf = p->nf_s;
+    sm.V = (double *)Vr;
+    sm.F = p->Fs;
+    st = dtx_sp04_plan_create(src, &sm, pairs, p->nf_s,
+                              p->npins > 0 ? DTX_ANCHOR_PINS : DTX_ANCHOR_FIXED, p->pins,
+                              p->pin_pos, p->npins, &p->sp04, err);
+    free(pairs);
+    if (st == DTX_EMESH)
+        dtx_error_prefix(err, "springs start \"sp04\" (a target of several connected components "
+                              "needs start \"linear\" or \"rest\")");
     return st;
 }
 
@@ -1172,6 +1293,19 @@ dtx_status dtx_springs_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, con
     st = bind_target(p, tgt, Vr, err);
     if (st != DTX_OK)
         goto fail;
+    /* The barrier needs a start whose triangles face as the source turns
+     * them and whose orientation is the source's: the sp04 start's. */
+    p->barrier = prm->barrier && prm->start == DTX_SPRINGS_START_SP04;
+    if (p->barrier) {
+        st = build_barrier(p, Vr, err);
+        if (st != DTX_OK)
+            goto fail;
+    }
+    if (p->start == DTX_SPRINGS_START_SP04) {
+        st = build_sp04_start(p, src, Vr, err);
+        if (st != DTX_OK)
+            goto fail;
+    }
 
     for (int k = 0; k < DTX_SPRING_KINDS; k++)
         p->info.springs[k] = p->lev[0].springs.count[k];
@@ -1218,7 +1352,7 @@ static double spring_energy(const level *L, const double *rtil, const double *x)
 
 /* Gradient g (3 nfree) and projected Hessian + mu I (Hx, the pattern's
  * values) at x. */
-static void assemble(const level *L, const double *rtil, const double *x, int project, double *g,
+static void assemble(const level *L, const double *rtil, const double *x, double theta, double *g,
                      double *Hx)
 {
     memset(g, 0, 3 * (size_t)L->nfree * sizeof *g);
@@ -1234,8 +1368,8 @@ static void assemble(const level *L, const double *rtil, const double *x, int pr
             for (int a = 0; a < 3; a++)
                 u[a] = q[a] / l;
             c = 1.0 - rtil[s] / l;
-            if (project && c < 0.0)
-                c = 0.0;
+            if (c < 0.0)
+                c *= theta;
             gs = k2 * (l - rtil[s]);
         }
         /* K = 2k [c I + (1 - c) u u^T]; a spring of zero length gets 2k I. */
@@ -1268,6 +1402,192 @@ static void assemble(const level *L, const double *rtil, const double *x, int pr
             Hx[L->colp[3 * f + b + 1] - 1] += L->mu;
 }
 
+/* ------------------------------------------------------------------ */
+/* Orientation barrier                                                 */
+/* ------------------------------------------------------------------ */
+
+/* The barrier of one frame on the fine level.  Triangle t (vertices a, b,
+ * c, rest double area A_t) has the oriented area a_t(x) = m_t . (x_b - x_a)
+ * x (x_c - x_a), m_t its rest unit normal turned by the rotation of its
+ * source triangle (as dtx_springs_apply counts inversions), so s_t = a_t /
+ * A_t is 1 at rest and 0 when the triangle stands at 90 degrees to where
+ * the source turns it (or has collapsed).  Its term is
+ *     kappa_t b(s_t),  b(s) = -(s - h_t)^2 log(s / h_t) for 0 < s < h_t,
+ * 0 for s >= h_t and +inf for s <= 0 (the C2 barrier of incremental
+ * potential contact), kappa_t = sqrt(A_t) (length units, like a spring's
+ * term), h_t = BARRIER_SHAT min(1, the source triangle's area ratio in the
+ * frame).  It is zero on every triangle that keeps a tenth of the area its
+ * source triangle keeps, in the expected orientation, so it changes the
+ * springs' equilibrium only where a triangle would otherwise fold (and
+ * T = S, whose s_t are the source's, never meets it); since the energy is
+ * +inf on a folded triangle, a line search that accepts only decreases
+ * never reaches one.  b is convex on (0, h_t) (b'' > 0): the projected Hessian
+ * keeps b'' grad a grad a^T, the exact one adds b' times a's (constant,
+ * indefinite) Hessian. */
+#define BARRIER_SHAT 0.1
+
+typedef struct {
+    int32_t nt;
+    const int32_t *F;        /* nt x 3 fine-level vertices */
+    const int32_t *sp;       /* nt x 3 edge springs (0,1), (1,2), (2,0) */
+    const double *area;      /* nt rest double areas */
+    const double *kappa;     /* nt weights */
+    const double *m;         /* nt x 3 the frame's expected unit normals */
+    const double *shat;      /* nt: the frame's thresholds */
+    const unsigned char *on; /* nt: in the barrier this frame */
+} barrier_terms;
+
+/* a_t of x and the gradients of a_t at its three vertices. */
+static double oriented_area(const double *x, const int32_t *tri, const double *m, double gr[3][3])
+{
+    double e1[3], e2[3], n[3];
+    sub3(x + 3 * (size_t)tri[1], x + 3 * (size_t)tri[0], e1);
+    sub3(x + 3 * (size_t)tri[2], x + 3 * (size_t)tri[0], e2);
+    if (gr) {
+        cross3(e2, m, gr[1]);
+        cross3(m, e1, gr[2]);
+        for (int k = 0; k < 3; k++)
+            gr[0][k] = -gr[1][k] - gr[2][k];
+    }
+    cross3(e1, e2, n);
+    return dot3(n, m);
+}
+
+static double barrier_energy(const barrier_terms *bt, const double *x)
+{
+    double e = 0.0;
+    for (int32_t t = 0; t < bt->nt; t++) {
+        double s;
+        if (!bt->on[t])
+            continue;
+        s = oriented_area(x, bt->F + 3 * (size_t)t, bt->m + 3 * (size_t)t, NULL) / bt->area[t];
+        if (!(s > 0.0))
+            return INFINITY;
+        if (s < bt->shat[t]) {
+            const double d = s - bt->shat[t];
+            e -= bt->kappa[t] * d * d * log(s / bt->shat[t]);
+        }
+    }
+    return e;
+}
+
+/* Adds the block M (rows: unknown of vertex p, columns: of q, p != q, both
+ * free) of a symmetric matrix to the upper-triangle values Hx at the
+ * positions of spring s (which joins p and q). */
+static void add_off_block(const level *L, int32_t s, int32_t fp, int32_t fq, double M[3][3],
+                          double *Hx)
+{
+    const int32_t *op = L->offpos + 3 * (size_t)s;
+    for (int c = 0; c < 3; c++)
+        for (int r = 0; r < 3; r++)
+            Hx[op[c] + r] += fp < fq ? M[r][c] : M[c][r];
+}
+
+/* Adds the barrier's gradient to g and its Hessian (projected, or exact
+ * when exact != 0) to Hx at x. */
+static void assemble_barrier(const level *L, const barrier_terms *bt, const double *x, double theta,
+                             double *g, double *Hx)
+{
+    for (int32_t t = 0; t < bt->nt; t++) {
+        const int32_t *tri = bt->F + 3 * (size_t)t;
+        const double *m = bt->m + 3 * (size_t)t;
+        double gr[3][3], s, d, db, d2, S[3][3], sh;
+        int32_t fv[3];
+        if (!bt->on[t])
+            continue;
+        s = oriented_area(x, tri, m, gr) / bt->area[t];
+        sh = bt->shat[t];
+        if (!(s < sh) || !(s > 0.0))
+            continue;
+        d = s - sh;
+        /* b'(s) and b''(s), scaled to a_t = A_t s. */
+        db = bt->kappa[t] * (-2.0 * d * log(s / sh) - d * d / s) / bt->area[t];
+        d2 = bt->kappa[t] * (-2.0 * log(s / sh) - 4.0 * d / s + d * d / (s * s)) /
+             (bt->area[t] * bt->area[t]);
+        /* a's Hessian: block (p, q) is S for q = p + 1 (mod 3), -S for
+         * q = p - 1, 0 for q = p, with S v = v x m. */
+        S[0][0] = S[1][1] = S[2][2] = 0.0;
+        S[0][1] = m[2];
+        S[0][2] = -m[1];
+        S[1][0] = -m[2];
+        S[1][2] = m[0];
+        S[2][0] = m[1];
+        S[2][1] = -m[0];
+        for (int v = 0; v < 3; v++)
+            fv[v] = L->freeidx[tri[v]];
+        for (int v = 0; v < 3; v++) {
+            if (fv[v] < 0)
+                continue;
+            for (int a = 0; a < 3; a++)
+                g[3 * (size_t)fv[v] + a] += db * gr[v][a];
+            for (int b = 0; b < 3; b++)
+                for (int a = 0; a <= b; a++)
+                    Hx[L->colp[3 * fv[v] + b + 1] - 1 - b + a] += d2 * gr[v][a] * gr[v][b];
+        }
+        for (int k = 0; k < 3; k++) {
+            const int pv = k, qv = (k + 1) % 3;
+            double M[3][3];
+            if (fv[pv] < 0 || fv[qv] < 0)
+                continue;
+            for (int r = 0; r < 3; r++)
+                for (int c = 0; c < 3; c++)
+                    M[r][c] = d2 * gr[pv][r] * gr[qv][c] + theta * db * S[r][c];
+            add_off_block(L, bt->sp[3 * (size_t)t + k], fv[pv], fv[qv], M, Hx);
+        }
+    }
+}
+
+/* The largest step alpha along dx (3 nfree, by unknown) before some
+ * triangle of the barrier reaches a_t = 0 (INFINITY when none does):
+ * a_t(alpha) is a quadratic. */
+static double barrier_max_step(const level *L, const barrier_terms *bt, const double *x,
+                               const double *dx)
+{
+    double amax = INFINITY;
+    for (int32_t t = 0; t < bt->nt; t++) {
+        const int32_t *tri = bt->F + 3 * (size_t)t;
+        const double *m = bt->m + 3 * (size_t)t;
+        double d[3][3], e1[3], e2[3], d1[3], d2[3], q[3], c0, c1, c2, r = INFINITY;
+        if (!bt->on[t])
+            continue;
+        for (int v = 0; v < 3; v++) {
+            const int32_t f = L->freeidx[tri[v]];
+            for (int k = 0; k < 3; k++)
+                d[v][k] = f >= 0 ? dx[3 * (size_t)f + k] : 0.0;
+        }
+        sub3(x + 3 * (size_t)tri[1], x + 3 * (size_t)tri[0], e1);
+        sub3(x + 3 * (size_t)tri[2], x + 3 * (size_t)tri[0], e2);
+        sub3(d[1], d[0], d1);
+        sub3(d[2], d[0], d2);
+        cross3(e1, e2, q);
+        c0 = dot3(q, m);
+        cross3(d1, e2, q);
+        c1 = dot3(q, m);
+        cross3(e1, d2, q);
+        c1 += dot3(q, m);
+        cross3(d1, d2, q);
+        c2 = dot3(q, m);
+        if (fabs(c2) <= 1e-12 * fabs(c1)) {
+            if (c1 < 0.0)
+                r = -c0 / c1;
+        } else {
+            const double disc = c1 * c1 - 4.0 * c2 * c0;
+            if (disc >= 0.0) {
+                /* The roots, computed without cancellation. */
+                const double qq = -0.5 * (c1 + (c1 >= 0.0 ? 1.0 : -1.0) * sqrt(disc));
+                const double r1 = qq / c2, r2 = qq != 0.0 ? c0 / qq : INFINITY;
+                if (r1 > 0.0)
+                    r = r1;
+                if (r2 > 0.0 && r2 < r)
+                    r = r2;
+            }
+        }
+        if (r < amax)
+            amax = r;
+    }
+    return amax;
+}
+
 /* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
  * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
  * Newton retries and reports a failed frame itself, so no message. */
@@ -1281,6 +1601,10 @@ static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common
  * vertex by more than this fraction of the diagonal. */
 #define EXACT_HESSIAN_STEP 1e-2
 
+/* The smallest share theta of the Hessian's indefinite part that Newton
+ * keeps (below it, none: the projected Hessian). */
+#define THETA_MIN (1.0 / 64.0)
+
 typedef struct {
     int iterations;
     int converged;
@@ -1291,12 +1615,148 @@ typedef struct {
 /* Projected Newton with a backtracking line search on level L from lw->x
  * (see the file comment); fixed vertices stay.  free_translation: the
  * problem has no pins, so the steps' mean translation is removed. */
-static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_iter, double tol,
-                   int free_translation, newton_result *res)
+/* Removes from d (3 nfree, by unknown) its least-squares infinitesimal
+ * rotation about the centroid of the free vertices of x: d_i -= w x p_i
+ * with J w = sum p_i x d_i, J = sum |p_i|^2 I - p_i p_i^T. */
+static void remove_rotation(const level *L, const double *x, double *d)
+{
+    double c[3] = {0, 0, 0}, J[9] = {0}, b[3] = {0, 0, 0}, w[3], det;
+    if (L->nfree < 3)
+        return;
+    for (int32_t f = 0; f < L->nfree; f++)
+        for (int k = 0; k < 3; k++)
+            c[k] += x[3 * (size_t)L->freev[f] + k] / L->nfree;
+    for (int32_t f = 0; f < L->nfree; f++) {
+        double pv[3], q[3];
+        sub3(x + 3 * (size_t)L->freev[f], c, pv);
+        cross3(pv, d + 3 * (size_t)f, q);
+        for (int a = 0; a < 3; a++) {
+            b[a] += q[a];
+            for (int k = 0; k < 3; k++)
+                J[3 * a + k] += (a == k ? dot3(pv, pv) : 0.0) - pv[a] * pv[k];
+        }
+    }
+    /* J^-1 b by the adjugate (J is the inertia tensor: positive definite
+     * unless every vertex is on one line). */
+    det = J[0] * (J[4] * J[8] - J[5] * J[7]) - J[1] * (J[3] * J[8] - J[5] * J[6]) +
+          J[2] * (J[3] * J[7] - J[4] * J[6]);
+    if (!(fabs(det) > 0.0))
+        return;
+    w[0] = ((J[4] * J[8] - J[5] * J[7]) * b[0] - (J[1] * J[8] - J[2] * J[7]) * b[1] +
+            (J[1] * J[5] - J[2] * J[4]) * b[2]) /
+           det;
+    w[1] = (-(J[3] * J[8] - J[5] * J[6]) * b[0] + (J[0] * J[8] - J[2] * J[6]) * b[1] -
+            (J[0] * J[5] - J[2] * J[3]) * b[2]) /
+           det;
+    w[2] = ((J[3] * J[7] - J[4] * J[6]) * b[0] - (J[0] * J[7] - J[1] * J[6]) * b[1] +
+            (J[0] * J[4] - J[1] * J[3]) * b[2]) /
+           det;
+    for (int32_t f = 0; f < L->nfree; f++) {
+        double pv[3], q[3];
+        sub3(x + 3 * (size_t)L->freev[f], c, pv);
+        cross3(w, pv, q);
+        for (int k = 0; k < 3; k++)
+            d[3 * (size_t)f + k] -= q[k];
+    }
+}
+
+/* Makes the step in lw->X the Newton step restricted to the motions with
+ * no rigid part: with C the 6 rigid motions of the free vertices about
+ * their centroid (3 nfree x 6, columns) and Z = H^-1 C (H in lw->L), the
+ * step d0 = -H^-1 g becomes d0 - Z (C^T Z)^-1 C^T d0, the minimiser of the
+ * quadratic model under C^T d = 0.  Simply removing the rigid part of d0
+ * would not do: the barrier couples the near-null turns of H to the
+ * deformations, so d0's large turn carries deformation with it.  Returns 0
+ * when a solve fails. */
+static int rigid_free_step(const level *L, level_work *lw, cholmod_common *cc)
+{
+    const int32_t nf = L->nfree;
+    double c[3] = {0, 0, 0}, M[6][7], lam[6], *C = lw->C->x, *d = lw->X->x;
+    const double *Z;
+    for (int32_t f = 0; f < nf; f++)
+        for (int k = 0; k < 3; k++)
+            c[k] += lw->x[3 * (size_t)L->freev[f] + k] / nf;
+    memset(C, 0, 3 * (size_t)nf * 6 * sizeof *C);
+    for (int32_t f = 0; f < nf; f++) {
+        double pv[3];
+        sub3(lw->x + 3 * (size_t)L->freev[f], c, pv);
+        for (int k = 0; k < 3; k++) {
+            double e[3] = {0, 0, 0}, r[3];
+            e[k] = 1.0;
+            C[(size_t)k * 3 * nf + 3 * (size_t)f + k] = 1.0;
+            cross3(e, pv, r);
+            for (int a = 0; a < 3; a++)
+                C[(size_t)(3 + k) * 3 * nf + 3 * (size_t)f + a] = r[a];
+        }
+    }
+    if (!cholmod_solve2(CHOLMOD_A, lw->L, lw->C, NULL, &lw->Z, NULL, &lw->ZY, &lw->ZE, cc))
+        return 0;
+    Z = lw->Z->x;
+    /* M = [C^T Z | C^T d0], solved by Gaussian elimination with partial
+     * pivoting (C^T Z is symmetric positive definite). */
+    for (int a = 0; a < 6; a++) {
+        for (int b = 0; b < 6; b++) {
+            double sum = 0.0;
+            for (size_t i = 0; i < 3 * (size_t)nf; i++)
+                sum += C[(size_t)a * 3 * nf + i] * Z[(size_t)b * 3 * nf + i];
+            M[a][b] = sum;
+        }
+        M[a][6] = 0.0;
+        for (size_t i = 0; i < 3 * (size_t)nf; i++)
+            M[a][6] += C[(size_t)a * 3 * nf + i] * d[i];
+    }
+    for (int col = 0; col < 6; col++) {
+        int piv = col;
+        for (int r = col + 1; r < 6; r++)
+            if (fabs(M[r][col]) > fabs(M[piv][col]))
+                piv = r;
+        if (!(fabs(M[piv][col]) > 0.0))
+            return 1; /* degenerate: keep d0 */
+        if (piv != col)
+            for (int k = 0; k < 7; k++) {
+                double t = M[col][k];
+                M[col][k] = M[piv][k];
+                M[piv][k] = t;
+            }
+        for (int r = col + 1; r < 6; r++) {
+            const double fct = M[r][col] / M[col][col];
+            for (int k = col; k < 7; k++)
+                M[r][k] -= fct * M[col][k];
+        }
+    }
+    for (int r = 5; r >= 0; r--) {
+        double sum = M[r][6];
+        for (int k = r + 1; k < 6; k++)
+            sum -= M[r][k] * lam[k];
+        lam[r] = sum / M[r][r];
+    }
+    for (int b = 0; b < 6; b++)
+        for (size_t i = 0; i < 3 * (size_t)nf; i++)
+            d[i] -= Z[(size_t)b * 3 * nf + i] * lam[b];
+    return 1;
+}
+
+static double total_energy(const level *L, const level_work *lw, const barrier_terms *bt,
+                           const double *x)
+{
+    double e = bt ? barrier_energy(bt, x) : 0.0;
+    return isinf(e) ? e : e + spring_energy(L, lw->rtil, x);
+}
+
+static void assemble_all(const level *L, const level_work *lw, const barrier_terms *bt,
+                         const double *x, double theta)
+{
+    assemble(L, lw->rtil, x, theta, lw->g, lw->Hx);
+    if (bt)
+        assemble_barrier(L, bt, x, theta, lw->g, lw->Hx);
+}
+
+static void newton(const level *L, level_work *lw, const barrier_terms *bt, cholmod_common *cc,
+                   int max_iter, double tol, int free_translation, newton_result *res)
 {
     const size_t n3 = 3 * (size_t)L->nfree;
-    double e = spring_energy(L, lw->rtil, lw->x);
-    int exact = 0;
+    double e = total_energy(L, lw, bt, lw->x);
+    double theta = 0.0; /* share of the indefinite part of the Hessian kept */
     cholmod_sparse A;
 
     res->iterations = 0;
@@ -1316,7 +1776,7 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
         double *b = lw->B->x;
         dtx_status fst;
         int accepted = 0;
-        assemble(L, lw->rtil, lw->x, !exact, lw->g, lw->Hx);
+        assemble_all(L, lw, bt, lw->x, theta);
         for (size_t i = 0; i < n3; i++)
             gmax = fmax(gmax, fabs(lw->g[i]));
         if (gmax == 0.0) {
@@ -1324,11 +1784,27 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
             break;
         }
         fst = factorize(&A, lw->L, cc);
-        if (fst == DTX_ESOLVE && exact) {
-            /* The exact Hessian is not positive definite here: back to the
-             * projected one. */
-            exact = 0;
-            assemble(L, lw->rtil, lw->x, 1, lw->g, lw->Hx);
+        if (fst == DTX_ESOLVE && theta > 0.0 && bt) {
+            /* With the barrier the solve leaves the turns out, and where the
+             * barrier pushes, the exact Hessian is slightly negative along
+             * them (the torque it exerts): a small shift of the diagonal
+             * (1e-6, then 1e-4 of its mean), which the turns' removal makes
+             * harmless, keeps the exact steps. */
+            double added = 0.0;
+            for (double sh = 1e-6; sh < 1e-3 && fst == DTX_ESOLVE; sh *= 100.0) {
+                const double d = sh * 2.0 * L->kmean - added;
+                for (int32_t f = 0; f < L->nfree; f++)
+                    for (int c = 0; c < 3; c++)
+                        lw->Hx[L->colp[3 * f + c + 1] - 1] += d;
+                added += d;
+                fst = factorize(&A, lw->L, cc);
+            }
+        }
+        while (fst == DTX_ESOLVE && theta > 0.0) {
+            /* Not positive definite with this much of the indefinite part:
+             * less of it, down to the projected Hessian. */
+            theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
+            assemble_all(L, lw, bt, lw->x, theta);
             fst = factorize(&A, lw->L, cc);
         }
         /* The projected H + mu I is positive definite in exact arithmetic;
@@ -1339,10 +1815,30 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += 100.0 * L->mu * attempt;
             fst = factorize(&A, lw->L, cc);
         }
+        /* A barrier term that has grown huge can defeat that: shifts of
+         * 1e-4 and 1e-1 of the mean diagonal (a shorter, still descending
+         * step). */
+        for (double sh = 1e-4; bt && sh < 1.0 && fst == DTX_ESOLVE; sh *= 1000.0) {
+            for (int32_t f = 0; f < L->nfree; f++)
+                for (int c = 0; c < 3; c++)
+                    lw->Hx[L->colp[3 * f + c + 1] - 1] += sh * 2.0 * L->kmean;
+            fst = factorize(&A, lw->L, cc);
+        }
+        if (fst == DTX_ESOLVE && bt) {
+            /* Rounding in a barrier term that has grown huge: the iterate
+             * is a valid shape with every triangle of the barrier right side
+             * up, so it is kept (not converged). */
+            break;
+        }
         if (fst != DTX_OK) {
             res->failed = 1;
             return;
         }
+        if (bt && free_translation)
+            /* The solve is over shapes placed as the start: the gradient's
+             * turning part (the barrier's torque) is left out too, so that
+             * the step stays a descent direction. */
+            remove_rotation(L, lw->x, lw->g);
         for (size_t i = 0; i < n3; i++)
             b[i] = -lw->g[i];
         if (!cholmod_solve2(CHOLMOD_A, lw->L, lw->B, NULL, &lw->X, NULL, &lw->Y, &lw->E, cc)) {
@@ -1361,11 +1857,23 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     d[3 * (size_t)f + c] -= m[c] / L->nfree;
+            /* With the barrier, whose normals are fixed in space, the
+             * energy is no longer invariant under rotations, yet H is
+             * nearly singular along them: the barrier's small torque would
+             * give a huge turn, which the line search then cuts short.  The
+             * orientation is the start's: the turn is removed (the solve is
+             * over shapes, placed as the start). */
+            if (bt && !rigid_free_step(L, lw, cc)) {
+                res->failed = 1;
+                return;
+            }
         }
         for (int32_t f = 0; f < L->nfree; f++) {
             const double *d = dx + 3 * (size_t)f;
             dmax2 = fmax(dmax2, dot3(d, d));
         }
+        if (!isfinite(dmax2))
+            break; /* as a failed factorisation: the iterate is kept */
         for (size_t i = 0; i < n3; i++)
             slope += lw->g[i] * dx[i];
         if (!(slope < 0.0)) {
@@ -1373,14 +1881,20 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
             res->converged = sqrt(dmax2) <= tol * L->diag;
             break;
         }
-        for (int ls = 0; ls < 40; ls++) {
+        if (bt) {
+            /* Start the search short of the first fold. */
+            const double amax = barrier_max_step(L, bt, lw->x, dx);
+            if (amax <= 1.0)
+                alpha = 0.9 * amax;
+        }
+        for (int ls = 0; ls < 60; ls++) {
             memcpy(lw->xt, lw->x, (size_t)L->n * 3 * sizeof *lw->xt);
             for (int32_t f = 0; f < L->nfree; f++) {
                 const int32_t v = L->freev[f];
                 for (int c = 0; c < 3; c++)
                     lw->xt[3 * (size_t)v + c] += alpha * dx[3 * (size_t)f + c];
             }
-            et = spring_energy(L, lw->rtil, lw->xt);
+            et = total_energy(L, lw, bt, lw->xt);
             if (et < e && et <= e + 1e-4 * alpha * slope) {
                 accepted = 1;
                 break;
@@ -1399,7 +1913,10 @@ static void newton(const level *L, level_work *lw, cholmod_common *cc, int max_i
          * linearly (when springs stay compressed at the equilibrium): it is
          * used once full steps are taken and small, and dropped again when
          * it needs a shorter step or is not positive definite. */
-        exact = alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag;
+        if (alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag)
+            theta = theta > 0.0 ? fmin(1.0, 2.0 * theta) : THETA_MIN;
+        else if (alpha < 0.5)
+            theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
         e = et;
         if (sqrt(dmax2) <= tol * L->diag) {
             res->converged = 1;
@@ -1419,7 +1936,10 @@ static int init_worker(void *plan, void *workspace)
     worker *k = workspace;
     dtx__chol_start(&k->cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     k->rot = dtx_alloc((size_t)p->max_level_n, 9 * sizeof *k->rot, 0);
-    if (!k->rot)
+    k->tm = dtx_alloc((size_t)p->nf_s, 3 * sizeof *k->tm, 0);
+    k->tsh = dtx_alloc((size_t)p->nf_s, sizeof *k->tsh, 0);
+    k->on = dtx_alloc((size_t)p->nf_s, 1, 0);
+    if (!k->rot || !k->tm || !k->tsh || !k->on)
         return 0;
     for (int l = 0; l < p->nlev; l++) {
         const level *L = &p->lev[l];
@@ -1436,6 +1956,11 @@ static int init_worker(void *plan, void *workspace)
             lw->B = cholmod_zeros(3 * (size_t)L->nfree, 1, CHOLMOD_REAL, &k->cc);
             if (!lw->L || !lw->B)
                 return 0;
+            if (l == 0 && p->barrier) {
+                lw->C = cholmod_zeros(3 * (size_t)L->nfree, 6, CHOLMOD_REAL, &k->cc);
+                if (!lw->C)
+                    return 0;
+            }
         }
     }
     return 1;
@@ -1733,16 +2258,71 @@ static void count_inverted(const dtx_springs_plan *p, const double *xs, const do
 }
 
 /* One frame: xs (nv_s x 3) to y (nv_t x 3). */
-static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, double *y,
-                        dtx_springs_frame_info *info)
+/* The frame's barrier (see assemble_barrier): every solve-mesh triangle
+ * whose rest and source triangles are not degenerate and that the fine
+ * start x0 has right side up; returns the triangles left out because x0
+ * has them folded. */
+static int32_t frame_barrier(const dtx_springs_plan *p, worker *w, const double *xs,
+                             const double *x0, barrier_terms *bt)
+{
+    int32_t skipped = 0;
+    bt->nt = p->nf_s;
+    bt->F = p->Fs;
+    bt->sp = p->tri_sp;
+    bt->area = p->tri_area;
+    bt->kappa = p->tri_kappa;
+    bt->m = w->tm;
+    bt->shat = w->tsh;
+    bt->on = w->on;
+    for (int32_t t = 0; t < p->nf_s; t++) {
+        const int32_t *st = p->Fs + 3 * (size_t)t;
+        const double *Fr = p->sframe + 9 * (size_t)t, *n0 = p->tri_n0 + 3 * (size_t)t;
+        double Fd[9], rn[3], *m = w->tm + 3 * (size_t)t;
+        w->on[t] = 0;
+        if (!(p->tri_area[t] > 0.0) || !(dot3(Fr + 6, Fr + 6) > 0.0) ||
+            !triangle_frame(xs + 3 * (size_t)st[0], xs + 3 * (size_t)st[1], xs + 3 * (size_t)st[2],
+                            Fd))
+            continue;
+        /* m = Fd^T Fr n0, as count_inverted's expected normal. */
+        mat_vec(Fr, n0, rn);
+        for (int k = 0; k < 3; k++)
+            m[k] = Fd[k] * rn[0] + Fd[3 + k] * rn[1] + Fd[6 + k] * rn[2];
+        {
+            /* A tenth of the source triangle's own area ratio (at most
+             * 1), so that T = S, where every s_t is the source's, never
+             * meets the barrier. */
+            double e1[3], e2[3], n[3], r0[3], r1[3], r2[3], ratio;
+            const double *V = p->Vs;
+            sub3(xs + 3 * (size_t)st[1], xs + 3 * (size_t)st[0], e1);
+            sub3(xs + 3 * (size_t)st[2], xs + 3 * (size_t)st[0], e2);
+            cross3(e1, e2, n);
+            sub3(V + 3 * (size_t)st[1], V + 3 * (size_t)st[0], r0);
+            sub3(V + 3 * (size_t)st[2], V + 3 * (size_t)st[0], r1);
+            cross3(r0, r1, r2);
+            ratio = sqrt(dot3(n, n) / dot3(r2, r2));
+            w->tsh[t] = BARRIER_SHAT * fmin(1.0, ratio);
+        }
+        if (!(oriented_area(x0, st, m, NULL) > 0.0)) {
+            skipped++;
+            continue;
+        }
+        w->on[t] = 1;
+    }
+    return skipped;
+}
+
+static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, const double *x0,
+                        double *y, dtx_springs_frame_info *info)
 {
     double Rs[9], cs[3], S[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, num = 0.0;
     const int pinned = p->npins > 0;
     newton_result nr;
     int coarse_it = 0;
     dtx_springs_frame_info fi;
+    barrier_terms bt;
 
     memset(&fi, 0, sizeof fi);
+    memset(&nr, 0, sizeof nr);
     fi.first_inverted = -1;
     for (int64_t i = 0; i < 3 * (int64_t)p->nv_s; i++)
         if (!isfinite(xs[i]))
@@ -1777,7 +2357,13 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
         const level *L = &p->lev[l];
         level_work *lw = &w->lw[l];
         const int coarsest = l == p->nlev - 1;
-        if (p->start == DTX_SPRINGS_START_LINEAR) {
+        if (p->start == DTX_SPRINGS_START_SP04) {
+            /* One level; sp04 holds the pins already. */
+            for (int64_t i = 0; i < 3 * (int64_t)L->n; i++)
+                if (!isfinite(x0[i]))
+                    goto nan;
+            memcpy(lw->x, x0, (size_t)L->n * 3 * sizeof *lw->x);
+        } else if (p->start == DTX_SPRINGS_START_LINEAR) {
             rigid_start(L, Rs, lw->x);
             if (l == 0 && pinned)
                 place_on_pins(p, L, lw->x);
@@ -1794,10 +2380,12 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
                 place_on_pins(p, L, lw->x);
         }
         if (l > 0) {
-            newton(L, lw, &w->cc, p->coarse_max_iter, p->coarse_tol, 1, &nr);
+            newton(L, lw, NULL, &w->cc, p->coarse_max_iter, p->coarse_tol, 1, &nr);
             coarse_it += nr.iterations;
         } else {
-            newton(L, lw, &w->cc, p->max_iter, p->tol, !pinned, &nr);
+            if (p->barrier)
+                fi.barrier_skipped = frame_barrier(p, w, xs, lw->x, &bt);
+            newton(L, lw, p->barrier ? &bt : NULL, &w->cc, p->max_iter, p->tol, !pinned, &nr);
         }
         if (nr.failed)
             goto nan;
@@ -1809,7 +2397,30 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
     fi.energy = nr.energy;
     for (int32_t s = 0; s < p->lev[0].springs.n; s++)
         num += p->lev[0].k[s] * w->lw[0].rtil[s] * w->lw[0].rtil[s];
-    fi.residual = num > 0.0 ? sqrt(nr.energy / num) : 0.0;
+    fi.residual =
+        num > 0.0 ? sqrt(spring_energy(&p->lev[0], w->lw[0].rtil, w->lw[0].x) / num) : 0.0;
+    {
+        /* The final gradient (the Hessian's values are not used). */
+        const level *L0 = &p->lev[0];
+        double g2 = 0.0;
+        assemble_all(L0, &w->lw[0], p->barrier ? &bt : NULL, w->lw[0].x, 0);
+        if (!pinned) {
+            /* Its part along the rigid motions, which the solve leaves out
+             * (the barrier's torque), is not counted. */
+            double m[3] = {0, 0, 0};
+            double *g = w->lw[0].g;
+            for (int32_t f = 0; f < L0->nfree; f++)
+                for (int c = 0; c < 3; c++)
+                    m[c] += g[3 * (size_t)f + c] / L0->nfree;
+            for (int32_t f = 0; f < L0->nfree; f++)
+                for (int c = 0; c < 3; c++)
+                    g[3 * (size_t)f + c] -= m[c];
+            remove_rotation(L0, w->lw[0].x, g);
+        }
+        for (size_t i = 0; i < 3 * (size_t)L0->nfree; i++)
+            g2 += w->lw[0].g[i] * w->lw[0].g[i];
+        fi.grad_norm = sqrt(g2);
+    }
 
     /* ---- To the target's vertices, placed. ---- */
     if (p->proxy)
@@ -1817,9 +2428,15 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
     else
         memcpy(y, w->lw[0].x, (size_t)p->nv_t * 3 * sizeof *y);
     {
-        double cy[3], Q[9], want[3], c[3];
+        double cy[3], Q[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, want[3], c[3];
+        /* Inversions are counted in the solve's frame, where the source's
+         * rotations (and the barrier's normals) are expressed. */
+        count_inverted(p, xs, y, Q, &fi);
         centroid_of(y, p->nv_t, p->tused, cy);
-        fit_to_guide(p, y, cy, Rs, Q);
+        /* The sp04 start has sp04's orientation, which Newton keeps (its
+         * steps have no rotational part): no turn then. */
+        if (p->start != DTX_SPRINGS_START_SP04)
+            fit_to_guide(p, y, cy, Rs, Q);
         if (!pinned) {
             for (int32_t t = 0; t < p->nv_t; t++) {
                 double a[3];
@@ -1852,10 +2469,7 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
             for (int32_t t = 0; t < p->nv_t; t++)
                 for (int k = 0; k < 3; k++)
                     y[3 * (size_t)t + k] += want[k] - c[k];
-            for (int k = 0; k < 9; k++)
-                Q[k] = k % 4 == 0 ? 1.0 : 0.0;
         }
-        count_inverted(p, xs, y, Q, &fi);
     }
     if (info)
         *info = fi;
@@ -1864,7 +2478,7 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
 nan:
     for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
         y[i] = NAN;
-    fi.energy = fi.energy_start = fi.residual = NAN;
+    fi.energy = fi.energy_start = fi.residual = fi.grad_norm = NAN;
     fi.converged = 0;
     if (info)
         *info = fi;
@@ -1877,6 +2491,21 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
                                         "the springs workspaces", err);
     if (st != DTX_OK)
         return st;
+    if (p->sp04 && nframes > 0) {
+        /* The starts of all the frames in one sp04 apply (whose results do
+         * not depend on how frames are split into calls or threads). */
+        if (nframes > p->starts_cap) {
+            double *s = dtx_alloc((size_t)nframes, 3 * (size_t)p->nv_s * sizeof *s, 0);
+            if (!s)
+                return dtx_seterr(err, DTX_ENOMEM, "out of memory for the springs starts");
+            free(p->starts);
+            p->starts = s;
+            p->starts_cap = nframes;
+        }
+        st = dtx_sp04_apply(p->sp04, nframes, Xs, p->starts, NULL, err);
+        if (st != DTX_OK)
+            return st;
+    }
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t f = 0; f < nframes; f++) {
         int t = 0;
@@ -1884,6 +2513,7 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
         t = omp_get_thread_num();
 #endif
         solve_frame(p, dtx__worker(&p->workers, t), Xs + (size_t)f * 3 * p->nv_s,
+                    p->sp04 ? p->starts + (size_t)f * 3 * p->nv_s : NULL,
                     Xt + (size_t)f * 3 * p->nv_t, info ? info + f : NULL);
     }
     return DTX_OK;
@@ -1965,8 +2595,9 @@ static void springs_method_describe(const void *plan, char *buf, size_t size)
 }
 
 /* The job file's "springs" object (transfer.h); damping is not one. */
-static const char *const springs_starts[] = {"linear", "rest", NULL};
+static const char *const springs_starts[] = {"linear", "rest", "sp04", NULL};
 static const dtx_setting springs_settings[] = {
+    {"barrier", DTX_SETTING_BOOL, offsetof(dtx_springs_params, barrier), NULL},
     {"bending", DTX_SETTING_BOOL, offsetof(dtx_springs_params, bending), NULL},
     {"coarse_max_iter", DTX_SETTING_INT, offsetof(dtx_springs_params, coarse_max_iter), NULL},
     {"coarse_min", DTX_SETTING_INT, offsetof(dtx_springs_params, coarse_min), NULL},

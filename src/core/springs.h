@@ -12,10 +12,12 @@
  * is r_T~ = r_T * r_S~ / r_S (the stretchiness ratio is transferred), the
  * stiffness k = 1 / r_T, and the result is the equilibrium of
  *     E(x) = sum_e k_e (|x_i - x_j| - r_T~_e)^2,
- * found by projected Newton with a backtracking line search, started from
- * the solution of the same problem on a coarsened hierarchy of the mesh.
- * E fixes a result only up to a rigid motion; see dtx_springs_apply for how
- * it is placed.
+ * found by Newton with a backtracking line search, started from the sp04
+ * transfer of the same frame (or from the solution of the same problem on
+ * a coarsened hierarchy of the mesh), with an orientation barrier that no
+ * triangle the start has right side up can cross (beyond the paper, whose
+ * stated limitation is element inversion).  E fixes a result only up to a
+ * rigid motion; see dtx_springs_apply for how it is placed.
  *
  * Same connectivity (the paper's setting): source and target have the same
  * vertices and faces (registered meshes); the solve mesh is the target.
@@ -91,8 +93,11 @@ void dtx_spring_set_free(dtx_spring_set *s);
 typedef enum {
     DTX_SPRINGS_START_LINEAR = 0, /* rotation-aware linear start on every level,
                                      anchored to the coarser level's solution */
-    DTX_SPRINGS_START_REST = 1    /* the paper's: rest shape on the coarsest level,
+    DTX_SPRINGS_START_REST = 1,   /* the paper's: rest shape on the coarsest level,
                                      the coarser solution prolongated on the others */
+    DTX_SPRINGS_START_SP04 = 2    /* the sp04 transfer of the same frame onto the
+                                     solve mesh, on the fine level only (levels is
+                                     not used) */
 } dtx_springs_start;
 
 typedef struct {
@@ -110,7 +115,11 @@ typedef struct {
                                 diagonal [1e-8] */
     int coarse_max_iter;     /* Newton iterations on each coarse level at most [50] */
     double coarse_tol;       /* as tol, on the coarse levels [1e-5] */
-    dtx_springs_start start; /* [DTX_SPRINGS_START_LINEAR] */
+    dtx_springs_start start; /* [DTX_SPRINGS_START_SP04] */
+    int barrier;             /* with the sp04 start: keep every solve-mesh
+                                triangle that the start has right side up
+                                from turning over (see dtx_springs_apply);
+                                not used with the other starts [1] */
     double damping;          /* mu = damping x the mean diagonal of the spring
                                 Hessian is added to its diagonal, so that it is
                                 positive definite despite the rigid motions [1e-10] */
@@ -144,11 +153,18 @@ typedef struct {
                                   was tried and found indefinite) */
     int32_t coarse_iterations; /* on the coarse levels, summed */
     int32_t converged;         /* 1 when the fine level met its stopping test; 0 when
-                                  max_iter ran out or the line search stalled */
+                                  max_iter ran out, the line search stalled or
+                                  (with the barrier) no shift of the Hessian could
+                                  be factored; the iterate is kept then */
     double energy_start;       /* E at the start of the fine level */
     double energy;             /* E of the result (length units) */
     double residual;           /* sqrt(E / sum_e k_e r_T~_e^2): the RMS relative error of
                                   the spring lengths; NaN for a non-finite frame */
+    double grad_norm;          /* Euclidean norm of the gradient of the fine level's
+                                  energy (springs and barrier) at the result; NaN
+                                  for a non-finite frame */
+    int32_t barrier_skipped;   /* solve-mesh triangles left out of the barrier
+                                  because the start has them inverted */
     int32_t inverted;          /* target triangles that are inverted (see
                                   dtx_springs_apply) */
     int32_t first_inverted;    /* the lowest of them, -1 if none */
@@ -204,12 +220,37 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  *     every vertex moving with the rigid transforms of its cluster and of
  *     the neighbouring clusters (each turned by the rotation that best fits
  *     its coarse neighbourhood), blended by inverse distance.
+ *   DTX_SPRINGS_START_SP04 (default): the sp04 transfer of the frame onto
+ *     the solve mesh (every triangle paired with itself; one sp04 apply for
+ *     all the frames of the call, whose results do not depend on the split),
+ *     solved on the fine level only.  Needs a solve mesh of one connected
+ *     component (dtx_springs_plan_create fails with DTX_EMESH otherwise).
  * The energy has local minima (element inversion, the paper's stated
  * limitation): different starts can end in different ones; the inverted
  * triangles of each result are counted and reported.
  *
- * Placement.  Without pins the result is turned so that it best fits R_s
- * applied to the target rest shape (so T = S gives S~ and T = s S gives
+ * Barrier (prm->barrier with the sp04 start).  Every solve-mesh triangle t
+ * that the start has right side up (oriented area a_t = m_t . (x_b - x_a)
+ * x (x_c - x_a) > 0, m_t its rest unit normal turned by its source
+ * triangle's rotation, as inversions are counted) gets the term
+ * sqrt(A_t) b(a_t / A_t), b the C2 barrier -(s - h)^2 log(s / h) below h =
+ * 0.1 min(1, the source triangle's area ratio), 0 above, +inf at s <= 0;
+ * the line search, which accepts only decreases, therefore never folds
+ * one.  The barrier is zero wherever a triangle keeps a tenth of the area
+ * its source triangle keeps, so the equilibrium changes only where a
+ * triangle would otherwise fold (T = S still gives S~ exactly).  The
+ * orientation is the start's: Newton's steps have no rigid part (they
+ * minimise the quadratic model under that constraint), and the result is
+ * not turned (placement below).  Triangles the start already has folded
+ * are left out of the barrier and reported (barrier_skipped).  Newton uses
+ * the Hessian with a share theta in [0, 1] of its indefinite part (the
+ * compressed springs' and the barrier's): 0 (projected, positive definite)
+ * far from the solution, doubled after each small full step up to the
+ * exact Hessian, reduced when a factorisation fails or a step is cut.
+ *
+ * Placement.  Without pins the result (not with the sp04 start, which
+ * keeps sp04's orientation) is turned so that it best fits R_s applied to
+ * the target rest shape (so T = S gives S~ and T = s S gives
  * s S~, up to a translation), then translated like sp04's: its centroid is
  * the target rest centroid (DTX_ANCHOR_FIXED) or follows the source's
  * (DTX_ANCHOR_FOLLOW, scaled by the ratio of the diagonals).  With pins the
@@ -224,7 +265,9 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * frame (e1/|e1|, n x e1/|e1|, n) to its deformed one); the driving triangle
  * is t itself with the same connectivity, else the proxy (= source) triangle
  * nearest to t's centroid.  Triangles with a zero rest normal are not
- * counted.  The result's global rotation is factored out first with pins.
+ * counted.  They are counted in the solve's frame (before the placement's
+ * turn).  With a proxy the target's triangles follow the proxy's through
+ * the binding, so the barrier on the proxy does not cover them.
  *
  * A frame with a non-finite source position gives NaN positions, a NaN
  * energy and residual, and affects no other frame.  Fails only with

@@ -46,7 +46,7 @@
 #define MAX_THREAD_RUNS 8
 
 typedef struct {
-    int same, proxy, frames, levels, internal;
+    int same, proxy, frames, levels, internal, max_iter, barrier, proxy_starts;
     int starts; /* bit 0: linear, bit 1: rest */
     double amount;
     int nthreads, threads[MAX_THREAD_RUNS];
@@ -164,6 +164,17 @@ static void frame_figures(const dtx_springs_frame_info *fi, int nf)
         inv += fi[f].inverted;
     }
     bench_summary3(BENCH_SUMMARY_G4, "inverted triangles", v, nf, 1.0, "");
+    for (int f = 0; f < nf; f++)
+        v[f] = fi[f].grad_norm;
+    bench_summary3(BENCH_SUMMARY_G4, "final gradient norm", v, nf, 1.0, "");
+    for (int f = 0; f < nf; f++)
+        v[f] = fi[f].barrier_skipped;
+    bench_summary3(BENCH_SUMMARY_G4, "triangles folded at the start", v, nf, 1.0, "");
+    printf("    per frame (iterations, converged, gradient norm, inverted):");
+    for (int f = 0; f < nf; f++)
+        printf(" (%d, %d, %.2g, %d)", (int)fi[f].iterations, (int)fi[f].converged, fi[f].grad_norm,
+               (int)fi[f].inverted);
+    printf("\n");
     printf("    converged %d of %d frames; %ld inverted triangles in all\n", conv, nf, inv);
     free(v);
 }
@@ -188,7 +199,9 @@ static void usage(void)
 {
     fprintf(stderr, "usage: dtx_bench_springs DATA_DIR [--run same|proxy|both] [--frames N] "
                     "[--threads 1,2] [--levels L] [--amount A] [--no-internal]\n"
-                    "                         [--start linear|rest|both]\n");
+                    "                         [--start linear|rest|both|sp04|all] [--max-iter N] "
+                    "[--barrier 0|1]\n"
+                    "                         [--proxy-start sp04|linear|both]\n");
     exit(2);
 }
 
@@ -197,9 +210,12 @@ static void parse(int argc, char **argv, options *o)
     o->same = o->proxy = 1;
     o->frames = 0;
     o->levels = -1;
+    o->max_iter = -1;
+    o->barrier = -1;
     o->internal = 1;
     o->amount = 0.15;
-    o->starts = 3;
+    o->starts = 7;
+    o->proxy_starts = 3;
     o->nthreads = 1;
     o->threads[0] = 1;
     for (int i = 2; i < argc; i++) {
@@ -220,10 +236,23 @@ static void parse(int argc, char **argv, options *o)
             o->starts = strcmp(v, "linear") == 0 ? 1
                         : strcmp(v, "rest") == 0 ? 2
                         : strcmp(v, "both") == 0 ? 3
+                        : strcmp(v, "sp04") == 0 ? 4
+                        : strcmp(v, "all") == 0  ? 7
                                                  : 0;
             if (!o->starts)
                 usage();
-        } else if (strcmp(a, "--frames") == 0)
+        } else if (strcmp(a, "--proxy-start") == 0) {
+            o->proxy_starts = strcmp(v, "sp04") == 0     ? 1
+                              : strcmp(v, "linear") == 0 ? 2
+                              : strcmp(v, "both") == 0   ? 3
+                                                         : 0;
+            if (!o->proxy_starts)
+                usage();
+        } else if (strcmp(a, "--max-iter") == 0)
+            o->max_iter = atoi(v);
+        else if (strcmp(a, "--barrier") == 0)
+            o->barrier = atoi(v);
+        else if (strcmp(a, "--frames") == 0)
             o->frames = atoi(v);
         else if (strcmp(a, "--levels") == 0)
             o->levels = atoi(v);
@@ -274,6 +303,10 @@ int main(int argc, char **argv)
     prm.internal = o.internal;
     if (o.levels >= 0)
         prm.levels = o.levels;
+    if (o.max_iter >= 0)
+        prm.max_iter = o.max_iter;
+    if (o.barrier >= 0)
+        prm.barrier = o.barrier;
     diag_t = dtx_bbox_diagonal(ds.tgt.V, ds.tgt.nv);
     printf("%s -> %s: source %d vertices, target %d vertices, %d frames (%d poses)\n", ds.src_name,
            ds.tgt_name, (int)ds.src.nv, (int)ds.tgt.nv, nf, ds.nposes);
@@ -307,6 +340,25 @@ int main(int argc, char **argv)
         printf("same connectivity (%s rest -> sp04 %s poses, onto %s thickened by %g): %d "
                "vertices\n",
                ds.tgt_name, ds.tgt_name, ds.tgt_name, o.amount, (int)T.nv);
+        if (o.starts & 4) {
+            /* The sp04 start (with the barrier unless --barrier 0): one
+             * level. */
+            dtx_springs_plan *p1 = NULL;
+            dtx_springs_params p0 = prm;
+            double *X1 = bench_xmalloc((size_t)nf, 3 * (size_t)T.nv * sizeof *X1);
+            dtx_springs_frame_info *f1 = bench_xmalloc((size_t)nf, sizeof *f1);
+            p0.start = DTX_SPRINGS_START_SP04;
+            printf(" start sp04, barrier %s:\n", p0.barrier ? "on" : "off");
+            if (dtx_springs_plan_create(&ds.tgt, &T, NULL, &p0, DTX_ANCHOR_FIXED, NULL, NULL, 0,
+                                        &p1, &e) != DTX_OK)
+                bench_die(&e);
+            print_plan("sp04", p1);
+            timed_runs("sp04 start", p1, &o, nf, Yt, X1, f1, T.nv);
+            frame_figures(f1, nf);
+            dtx_springs_plan_free(&p1);
+            free(X1);
+            free(f1);
+        }
         for (int sm = 0; sm < 2; sm++) {
             dtx_springs_plan *p1 = NULL, *pm = NULL;
             dtx_springs_params p0 = prm, pg = prm;
@@ -320,6 +372,7 @@ int main(int argc, char **argv)
             f1 = bench_xmalloc((size_t)nf, sizeof *f1);
             fm = bench_xmalloc((size_t)nf, sizeof *fm);
             p0.start = pg.start = sm == 0 ? DTX_SPRINGS_START_LINEAR : DTX_SPRINGS_START_REST;
+            p0.barrier = pg.barrier = 0; /* used with the sp04 start only */
             p0.levels = 0;
             printf(" start %s:\n", sm == 0 ? "linear" : "rest (the paper's)");
             if (dtx_springs_plan_create(&ds.tgt, &T, NULL, &p0, DTX_ANCHOR_FIXED, NULL, NULL, 0,
@@ -351,13 +404,26 @@ int main(int argc, char **argv)
         dtx_mesh_free(&T);
     }
 
-    if (o.proxy) {
+    for (int ps = 0; ps < 2 && o.proxy; ps++) {
         dtx_springs_plan *pp = NULL;
+        dtx_springs_params pr = prm;
         double *X = bench_xmalloc((size_t)nf, 3 * (size_t)ds.tgt.nv * sizeof *X);
         dtx_springs_frame_info *fi = bench_xmalloc((size_t)nf, sizeof *fi);
-        printf("proxy (%s -> %s, different connectivity): solve mesh %d vertices\n", ds.src_name,
-               ds.tgt_name, (int)ds.src.nv);
-        if (dtx_springs_plan_create(&ds.src, &ds.tgt, corr.deformed_src, &prm, DTX_ANCHOR_FIXED,
+        if (!(o.proxy_starts & (1 << ps))) {
+            free(X);
+            free(fi);
+            continue;
+        }
+        /* sp04 start with the barrier (the default), or the linear
+         * multigrid start without it (the default before them). */
+        pr.start = ps == 0 ? DTX_SPRINGS_START_SP04 : DTX_SPRINGS_START_LINEAR;
+        if (ps == 1)
+            pr.barrier = 0;
+        printf("proxy (%s -> %s, different connectivity), start %s, barrier %s: solve mesh %d "
+               "vertices\n",
+               ds.src_name, ds.tgt_name, ps == 0 ? "sp04" : "linear",
+               pr.barrier && ps == 0 ? "on" : "off", (int)ds.src.nv);
+        if (dtx_springs_plan_create(&ds.src, &ds.tgt, corr.deformed_src, &pr, DTX_ANCHOR_FIXED,
                                     NULL, NULL, 0, &pp, &e) != DTX_OK)
             bench_die(&e);
         print_plan("proxy", pp);

@@ -102,7 +102,8 @@ vg ! bad-job run "$W/missing.json"
 DTX_FAULT=transfer@0 vg ! failed-run run "$W/job.json"
 vg validate-after-failure validate "$W/out.h5"
 # Method springs on the sphere onto itself: the springs with bending and
-# internal springs, a two-level start, Newton, frame_stats.
+# internal springs, the sp04 start (levels is not used then) with the
+# barrier, Newton, frame_stats.
 vg import-one import sequence "$W/ball-1.obj" -o "$W/in.h5" --name one --mesh /meshes/ball
 cat > "$W/springs.json" <<JOB
 {

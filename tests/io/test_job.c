@@ -334,13 +334,21 @@ static void test_defaults(void)
     CHECK_EQ_INT(job.springs.internal, 1);
     CHECK(job.springs.tol == 1e-6);
     CHECK_EQ_INT(job.springs.max_iter, 100);
+    CHECK_EQ_INT(job.springs.barrier, 1);
+    dtx_job_free(&job);
+    CHECK_OK(
+        parse(job_text(NULL, NULL, NULL, ",\"springs\":{\"start\":\"sp04\",\"barrier\":false}"),
+              "/data/jobs", 0, &job, err),
+        err);
+    CHECK_EQ_INT(job.springs.start, DTX_SPRINGS_START_SP04);
+    CHECK_EQ_INT(job.springs.barrier, 0);
     dtx_job_free(&job);
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"anything\":1}"),
                 "at /springs: unknown key \"anything\"");
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"levels\":9}"),
                 "at /springs/levels:");
     EXPECT_FAIL(job_text(NULL, NULL, NULL, ",\"springs\":{\"start\":\"coarse\"}"),
-                "at /springs/start: expected one of linear, rest");
+                "at /springs/start: expected one of sp04, linear, rest");
 }
 
 /* Every other example job parses, with its method (files need not exist). */
@@ -878,10 +886,11 @@ static void test_params_json(void)
         CHECK_EQ_INT(job.method, DTX_METHOD_SPRINGS);
         p = dtx_job_params_json(&job);
         CHECK(p && strstr(p, "{\"method\":\"springs\",\"sp04\":{\"max_angle_deg\":90,") == p);
-        CHECK(p && strstr(p, "},\"springs\":{\"bending\":true,\"coarse_max_iter\":50,"
-                             "\"coarse_min\":150,\"coarse_tol\":1.0000000000000001e-05,"
-                             "\"internal\":false,\"levels\":0,\"max_iter\":100,"
-                             "\"start\":\"linear\",\"tol\":1e-08}}") != NULL);
+        CHECK(p && strstr(p, "},\"springs\":{\"barrier\":true,\"bending\":true,"
+                             "\"coarse_max_iter\":50,\"coarse_min\":150,"
+                             "\"coarse_tol\":1.0000000000000001e-05,\"internal\":false,"
+                             "\"levels\":0,\"max_iter\":100,\"start\":\"sp04\",\"tol\":1e-08}}") !=
+                       NULL);
         free(p);
         dtx_job_free(&job);
     }
