@@ -17,9 +17,10 @@
  * to the nearest one regardless of the threshold, so every target triangle
  * ends in at least one pair and the transfer system stays non-singular.
  *
- * All geometry is first mapped so that the target's bounding-box diagonal is
- * 1 (and, by default, the source is aligned on the markers by a similarity
- * transform), which makes the weights and thresholds scale-invariant.
+ * All geometry is first mapped so that the target's size (dtx_rms_extent,
+ * about its bounding-box diagonal, but unchanged by rotations) is 1 (and, by
+ * default, the source is aligned on the markers by a similarity transform),
+ * which makes the weights and thresholds invariant to scale and rotation.
  */
 #include "cholmod_util.h"
 #include "correspondence_internal.h"
@@ -682,7 +683,9 @@ dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
         free(Q);
     }
 
-    /* Normalise: target bounding box centred at the origin, unit diagonal. */
+    /* Normalise: the target's bounding box centred at the origin, and its
+     * size (dtx_rms_extent: unlike the box's diagonal, the same however the
+     * meshes are turned) 1. */
     for (int k = 0; k < 3; k++) {
         lo[k] = INFINITY;
         hi[k] = -INFINITY;
@@ -695,7 +698,7 @@ dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
         }
     for (int k = 0; k < 3; k++)
         center[k] = 0.5 * (lo[k] + hi[k]);
-    diag = dtx_bbox_diagonal(tgt->V, tgt->nv);
+    diag = dtx_rms_extent(tgt->V, tgt->nv);
     if (!(diag > 0.0))
         return dtx_seterr(err, DTX_EMESH, "target mesh has zero extent");
     for (int32_t i = 0; i < tgt->nv; i++)

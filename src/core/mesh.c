@@ -109,6 +109,24 @@ double dtx_bbox_diagonal(const double *X, int32_t n)
                 (hi[2] - lo[2]) * (hi[2] - lo[2]));
 }
 
+double dtx_rms_extent(const double *X, int32_t n)
+{
+    double c[3] = {0, 0, 0}, s2 = 0;
+    if (n <= 0)
+        return 0.0;
+    for (int32_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++)
+            c[k] += X[3 * (size_t)i + k];
+    for (int k = 0; k < 3; k++)
+        c[k] /= n;
+    for (int32_t i = 0; i < n; i++)
+        for (int k = 0; k < 3; k++) {
+            double d = X[3 * (size_t)i + k] - c[k];
+            s2 += d * d;
+        }
+    return 2.0 * sqrt(3.0 * s2 / n);
+}
+
 double dtx_mesh_mean_edge(const dtx_mesh *m)
 {
     double sum = 0;

@@ -99,6 +99,13 @@ int dtx_mesh_report_notes(const dtx_mesh_report *rep, char *buf, size_t n);
 
 /* Length of the bounding-box diagonal of X (n x 3). */
 double dtx_bbox_diagonal(const double *X, int32_t n);
+/* A size of the n points X that no rotation changes: 2 sqrt(3) times the
+ * RMS distance of the points from their centroid (for points spread evenly
+ * through a box, about the box's diagonal).  The bounding box's diagonal
+ * changes when the points rotate (by up to a factor sqrt(3)), so scale
+ * factors and thresholds derived from it are not rotation-invariant; this
+ * one is.  0 for n <= 0. */
+double dtx_rms_extent(const double *X, int32_t n);
 
 /* Mean edge length of the mesh (each face's three edges, shared edges
  * counted from each face); 0 for a mesh without faces. */

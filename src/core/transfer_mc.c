@@ -719,7 +719,12 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
         p->used[tgt->F[i]] = 1;
     dtx__centroid(tgt->V, nv, p->rest_centroid_t);
     dtx__centroid(src->V, src->nv, p->rest_centroid_s);
-    p->scale = diag_s > 0 ? diag_t / diag_s : 1.0;
+    /* "follow": the source's centroid motion scaled by the meshes' size
+     * ratio (dtx_rms_extent: the same however both are turned). */
+    {
+        double es = dtx_rms_extent(src->V, src->nv), et = dtx_rms_extent(tgt->V, nv);
+        p->scale = es > 0 ? et / es : 1.0;
+    }
     for (int32_t v = 0; v < nv; v++)
         p->freeidx[v] = p->used[v] ? 0 : -1;
     for (int32_t i = 0; i < npins; i++) {

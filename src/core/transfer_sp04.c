@@ -620,7 +620,7 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
     int32_t *comp = NULL, *tmult = NULL;
     double *Vinv = NULL, *G = NULL, *N = NULL;
     unsigned char *used = NULL;
-    double diag_s, diag_t, t0;
+    double t0;
     const int32_t nv = tgt->nv, nf = tgt->nf;
 
     *out = NULL;
@@ -691,9 +691,12 @@ dtx_status dtx_sp04_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const 
      * anchor vertex whose value is fixed by the centroid afterwards. */
     dtx__centroid(tgt->V, nv, p->rest_centroid_t);
     dtx__centroid(src->V, src->nv, p->rest_centroid_s);
-    diag_s = dtx_bbox_diagonal(src->V, src->nv);
-    diag_t = dtx_bbox_diagonal(tgt->V, nv);
-    p->scale = diag_s > 0 ? diag_t / diag_s : 1.0;
+    /* "follow": the source's centroid motion scaled by the meshes' size
+     * ratio (dtx_rms_extent: the same however both are turned). */
+    {
+        double es = dtx_rms_extent(src->V, src->nv), et = dtx_rms_extent(tgt->V, nv);
+        p->scale = es > 0 ? et / es : 1.0;
+    }
     for (int32_t v = 0; v < nv; v++) {
         p->freeidx[v] = used[v] ? 0 : -1;
         memcpy(p->fixedval + 3 * (size_t)v, tgt->V + 3 * (size_t)v, 3 * sizeof(double));
