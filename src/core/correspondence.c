@@ -316,11 +316,34 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
         freeidx[fixv[m]] = -1;
         memcpy(fixed + 3 * (size_t)fixv[m], fixpos + 3 * (size_t)m, 3 * sizeof(double));
     }
+    /* The fourth vertex of a zero-area triangle has no normal to stand on:
+     * its column of the system is zero up to rounding, and the
+     * factorisation would fail or not depending on that rounding.  Nothing
+     * else depends on it (its face's regularised inverse ignores the normal
+     * direction), so it stays at its rest position.  (A needle keeps it: its
+     * normal, though short, still carries the regularised gradient.) */
+    eps_area = 1e-14; /* geometry is normalised to a unit target size */
+    for (int32_t f = 0; f < nf; f++) {
+        const double *a = S0 + 3 * (size_t)F[3 * f], *b = S0 + 3 * (size_t)F[3 * f + 1],
+                     *c = S0 + 3 * (size_t)F[3 * f + 2];
+        double e1[3], e2[3], n[3];
+        for (int k = 0; k < 3; k++) {
+            e1[k] = b[k] - a[k];
+            e2[k] = c[k] - a[k];
+        }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        if (!(0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) > eps_area) &&
+            freeidx[nv + f] == 0) {
+            freeidx[nv + f] = -1;
+            memcpy(fixed + 3 * (size_t)(nv + f), a, 3 * sizeof(double));
+        }
+    }
     for (int32_t v = 0; v < nvar; v++)
         if (freeidx[v] == 0)
             freeidx[v] = nfree++;
 
-    eps_area = 1e-14; /* geometry is normalised to a unit target diagonal */
     dtx_frame_inverses(S0, F, nf, eps_area, Vinv);
     nadj = face_adjacency(F, nf, &adj);
     if (nadj < 0)

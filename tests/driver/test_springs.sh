@@ -85,7 +85,8 @@ check "frame_stats: 3 x 3 per result" bash -c "h5dump -H -d /results/lion/cat-po
 check "report: the Newton solves of each result" test "$(grep -c '^Newton solves (frame_stats): ' report.md)" -eq 3
 check "frame_stats: columns named" bash -c "h5dump -a /results/lion/cat-poses/frame_stats/columns np2.h5 | grep -q 'iterations converged inverted'"
 # frame_stats rows: every one written (no -1), iterations 1..maxit,
-# converged 0 or 1 (and 1 whenever fewer than maxit iterations were taken).
+# converged 0 or 1.  (A frame may stop unconverged before maxit: when no
+# shifted Hessian can be factored, springs.c keeps the last iterate.)
 stats() { # stats RESULT: the frame_stats numbers, space-separated
     h5dump -y -w 0 -d "$1/frame_stats" np2.h5 | awk '/^   DATA \{/ { on = 1; next }
         on && /^   \}/ { exit } on' | tr ',' '\n' | awk 'NF { print $1 + 0 }' | paste -sd' '
@@ -95,7 +96,7 @@ for t in fatcat self lion; do
     echo "frame_stats $t: $st"
     check "frame_stats of $t: 3 plausible rows" awk -v m=$maxit '{ if (NF != 9) exit 1
         for (i = 1; i <= 9; i += 3) if ($i < 1 || $i > m || ($(i+1) != 0 && $(i+1) != 1) ||
-            ($i < m && $(i+1) != 1) || $(i+2) < 0) exit 1 }' <<< "$st"
+            $(i+2) < 0) exit 1 }' <<< "$st"
 done
 if [ "$asan" = 0 ]; then
     check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
