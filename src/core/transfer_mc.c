@@ -1190,6 +1190,20 @@ static void frame_finish(const dtx_mc_plan *p, mc_frame *fr, int converged)
     }
 }
 
+/* A frame whose solve failed (out of memory for its workspace) is reported
+ * as failed, all NaN, rather than stopping the other frames. */
+static void frame_failed(const dtx_mc_plan *p, mc_frame *fr)
+{
+    for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
+        fr->Xt[i] = NAN;
+    if (fr->residual)
+        *fr->residual = NAN;
+    if (fr->info) {
+        fr->info->iterations = fr->it;
+        fr->info->converged = 0;
+    }
+}
+
 /* Starts frame f: the source gradients, the frame's part of the right-hand
  * side and the first step's.  Returns 1 when the frame now waits for a
  * solve, 0 when it is already done (non-finite source positions: NaN out,
@@ -1523,32 +1537,14 @@ dtx_status dtx_mc_apply(dtx_mc_plan *p, int64_t nframes, const double *Xs, doubl
         if (!frame_start(p, fr, f, Xs, Xt, residual, info))
             continue;
         if (p->A) {
-            if (!newton_frame(p, w)) {
-                /* Out of memory for a solve's workspace, as below. */
-                for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
-                    fr->Xt[i] = NAN;
-                if (fr->residual)
-                    *fr->residual = NAN;
-                if (fr->info) {
-                    fr->info->iterations = fr->it;
-                    fr->info->converged = 0;
-                }
-            }
+            if (!newton_frame(p, w))
+                frame_failed(p, fr); /* out of memory for a solve's workspace */
             continue;
         }
         do {
             if (!cholmod_solve2(CHOLMOD_A, p->L, w->B, NULL, &w->X, NULL, &w->Y, &w->E,
                                 &w->cc)) {
-                /* Out of memory for the solve's workspace: the frame is
-                 * reported as failed rather than stopping the others. */
-                for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
-                    fr->Xt[i] = NAN;
-                if (fr->residual)
-                    *fr->residual = NAN;
-                if (fr->info) {
-                    fr->info->iterations = fr->it;
-                    fr->info->converged = 0;
-                }
+                frame_failed(p, fr); /* out of memory for the solve's workspace */
                 break;
             }
             fr->g = w->X->x;

@@ -64,6 +64,27 @@ int run_uses_correspondence(const run_state *r)
            (r->method->uses_keypoints && r->job.bh.keypoints == DTX_BH_KEYS_AUTO);
 }
 
+void run_corr_meta(const run_state *r, const target_ctx *tc, const char *params,
+                   run_corr_desc *d, dtx_h5_corr_meta *meta)
+{
+    const dtx_job_target *tj = tc->tj;
+    snprintf(d->source, sizeof d->source, "%s:%s", r->job.source_file, r->job.source_mesh);
+    snprintf(d->target, sizeof d->target, "%s:%s", tj->file, tj->mesh);
+    if (tj->markers.csv)
+        /* Not starting with '/': the validator follows in-file paths. */
+        snprintf(d->markers, sizeof d->markers, "CSV file %s (index base %d)", tj->markers.csv,
+                 tj->markers.index_base);
+    else if (tj->markers.file)
+        snprintf(d->markers, sizeof d->markers, "%s:%s", tj->markers.file, tj->markers.path);
+    else
+        snprintf(d->markers, sizeof d->markers, "none");
+    meta->key = tc->key;
+    meta->source_mesh = d->source;
+    meta->target_mesh = d->target;
+    meta->markers = d->markers;
+    meta->parameters = params;
+}
+
 /* mkdir -p of the directory part of path (dir_only != 0) or of path. */
 dtx_status run_make_dirs(const char *path, int dir_only, dtx_error *err)
 {

@@ -163,6 +163,14 @@ dtx_status run_make_dirs(const char *path, int dir_only, dtx_error *err);
  * points from markers).  A target with the source's vertices and faces
  * needs none either way (target_ctx.same_conn). */
 int run_uses_correspondence(const run_state *r);
+/* The provenance of target tc's correspondence as its HDF5 group records it
+ * (meta: key, source and target mesh and markers as text, params); the
+ * strings live in d. */
+typedef struct {
+    char source[4200], target[4200], markers[4200];
+} run_corr_desc;
+void run_corr_meta(const run_state *r, const target_ctx *tc, const char *params,
+                   run_corr_desc *d, dtx_h5_corr_meta *meta);
 
 /* run_inputs.c: phases 1 and 2. */
 

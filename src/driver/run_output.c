@@ -351,7 +351,6 @@ static dtx_status create_output(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     char *params = dtx_job_params_json(&r->job);
-    char srcdesc[4200];
     if (r->rank == 0) {
         st = run_make_dirs(r->job.output_file, 1, err);
         if (st == DTX_OK && remove(r->partial) != 0 && errno != ENOENT)
@@ -369,28 +368,14 @@ static dtx_status create_output(run_state *r, dtx_error *err)
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
     st = params ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
         const dtx_job_target *tj = tc->tj;
-        char tgtdesc[4200], mkdesc[4200];
+        run_corr_desc desc;
         dtx_h5_corr_meta meta;
-        snprintf(tgtdesc, sizeof tgtdesc, "%s:%s", tj->file, tj->mesh);
-        if (tj->markers.csv)
-            /* Not starting with '/': the validator follows in-file paths. */
-            snprintf(mkdesc, sizeof mkdesc, "CSV file %s (index base %d)", tj->markers.csv,
-                     tj->markers.index_base);
-        else if (tj->markers.file)
-            snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
-        else
-            snprintf(mkdesc, sizeof mkdesc, "none");
-        meta.key = tc->key;
-        meta.source_mesh = srcdesc;
-        meta.target_mesh = tgtdesc;
-        meta.markers = mkdesc;
-        meta.parameters = params;
+        run_corr_meta(r, tc, params, &desc, &meta);
         st = dtx_weld_write_asset(r->out, tc->mesh_path, &tc->weld, &tc->mesh, tj->file,
-                                  tj->mesh, tgtdesc, err);
+                                  tj->mesh, desc.target, err);
         /* Only sp04's correspondence has a place in the layout (with its
          * deformed source); the multicomponent one is recomputed per run. */
         if (st == DTX_OK && tc->corr.deformed_src)

@@ -96,7 +96,8 @@ dtx_status run_store_save(run_state *r, dtx_error *err)
     for (int t = 0; r->rank == 0 && st == DTX_OK && t < r->nt; t++) {
         target_ctx *tc = &r->tg[t];
         const dtx_job_target *tj = tc->tj;
-        char path[4400], srcdesc[4200], tgtdesc[4200], mkdesc[4200];
+        char path[4400];
+        run_corr_desc desc;
         dtx_h5_corr_meta meta;
         if (tc->same_conn || tc->reused == RUN_CORR_STORE)
             continue;
@@ -110,20 +111,7 @@ dtx_status run_store_save(run_state *r, dtx_error *err)
                             "correspondence store: %s is an input of the job; not written", path);
             break;
         }
-        snprintf(srcdesc, sizeof srcdesc, "%s:%s", r->job.source_file, r->job.source_mesh);
-        snprintf(tgtdesc, sizeof tgtdesc, "%s:%s", tj->file, tj->mesh);
-        if (tj->markers.csv)
-            snprintf(mkdesc, sizeof mkdesc, "CSV file %s (index base %d)", tj->markers.csv,
-                     tj->markers.index_base);
-        else if (tj->markers.file)
-            snprintf(mkdesc, sizeof mkdesc, "%s:%s", tj->markers.file, tj->markers.path);
-        else
-            snprintf(mkdesc, sizeof mkdesc, "none");
-        meta.key = tc->key;
-        meta.source_mesh = srcdesc;
-        meta.target_mesh = tgtdesc;
-        meta.markers = mkdesc;
-        meta.parameters = params;
+        run_corr_meta(r, tc, params, &desc, &meta);
         st = dtx_corr_store_write(dir, tc->key, tc->corr.pairs, tc->corr.npairs,
                                   needs_deformed(r) ? tc->corr.deformed_src : NULL, r->src.nv,
                                   &meta, err);
