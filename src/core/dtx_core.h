@@ -129,6 +129,9 @@ typedef struct {
     int32_t unmatched_tgt; /* sp04: target triangles that needed a fallback pairing;
                               multicomponent: orphan target triangles (in no pair) */
     int solves;            /* linear solves done */
+    int factorizations;    /* numeric factorisations done: a phase whose matrix
+                              is the previous phase's (same weight, same set of
+                              valid closest points) reuses its factor */
     double fit_rms;        /* RMS distance (fraction of target diagonal) of the
                               deformed source vertices to the target surface */
 } dtx_corr;
