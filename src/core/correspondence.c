@@ -285,7 +285,7 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     cholmod_sparse *K = NULL;
     cholmod_factor *L = NULL;
     cholmod_dense *B = NULL, *Xs = NULL;
-    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL;
+    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL;
     double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
            *cp = NULL;
     unsigned char *valid = NULL, *valid_prev = NULL;
@@ -303,8 +303,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     cp = dtx_alloc((size_t)nv, 3 * sizeof *cp, 0);
     valid = dtx_alloc((size_t)nv, 1, 1);
     valid_prev = dtx_alloc((size_t)nv, 1, 1);
-    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev)
+    hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
+    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit)
         goto nomem;
+    for (int32_t v = 0; v < nv; v++)
+        hit[v] = -1;
 
     /* Unknowns: markers are fixed at their target positions, and vertices
      * in no triangle (no term reaches them) stay where they are. */
@@ -408,15 +411,21 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
 #pragma omp parallel for schedule(static)
             for (int32_t v = 0; v < nv; v++) {
                 normal_filter_ctx ctx;
+                int32_t t;
                 valid[v] = 0;
                 if (freeidx[v] < 0)
                     continue;
                 ctx.tnormals = tnormals;
                 ctx.n = vn + 3 * (size_t)v;
                 ctx.cosmax = cosmax;
-                if (dtx_bvh_closest(tbvh, X + 3 * (size_t)v, prm->max_distance, normal_filter,
-                                    &ctx, cp + 3 * (size_t)v, NULL) >= 0)
+                /* The previous phase's closest triangle is the search's
+                 * first bound: the same answer, found sooner. */
+                t = dtx_bvh_closest_from(tbvh, X + 3 * (size_t)v, prm->max_distance,
+                                         normal_filter, &ctx, hit[v], cp + 3 * (size_t)v, NULL);
+                if (t >= 0) {
                     valid[v] = 1;
+                    hit[v] = t;
+                }
             }
             for (int32_t v = 0; v < nv; v++) {
                 int32_t fv = freeidx[v];
@@ -472,6 +481,7 @@ fail:
     free(cp);
     free(valid);
     free(valid_prev);
+    free(hit);
     free(adj);
     free(rhs_base);
     free(kx_base);
