@@ -189,7 +189,8 @@ static void test_closest_from(const dtx_mesh *m)
         hints[1] = r0;
         hints[2] = r0 >= 0 ? (r0 + m->nf) % nf : 0; /* its twin */
         hints[3] = (int32_t)(s % (uint64_t)nf);
-        hints[4] = 1;  /* rejected by the filter */
+        /* the closest of all, which the filter may reject */
+        hints[4] = dtx_bvh_closest(bvh, p, maxd, NULL, NULL, NULL, NULL);
         hints[5] = nf; /* out of range */
         for (int h = 0; h < 6; h++) {
             d1 = -1;
