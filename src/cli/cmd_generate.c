@@ -1,5 +1,6 @@
 /*
- * cmd_generate.c: `dtx generate pebbles|garment|eyes|reshape IN OUT [options]`.
+ * cmd_generate.c: `dtx generate pebbles|garment|eyes|reshape|subdivide IN OUT
+ * [options]`.
  *
  * Reads one mesh, runs a generator of src/gen/generate.h, and writes the
  * result as OBJ, optionally with its vertex map ("generated_vertex,
@@ -29,11 +30,11 @@
 #include <stdlib.h>
 #include <string.h>
 
-enum { KIND_PEBBLES, KIND_GARMENT, KIND_EYES, KIND_RESHAPE };
+enum { KIND_PEBBLES, KIND_GARMENT, KIND_EYES, KIND_RESHAPE, KIND_SUBDIVIDE };
 
 /* Every option takes a value; `kinds` says which generators accept it
  * (bit 1 << KIND_*). */
-#define ALL_KINDS 15
+#define ALL_KINDS 31
 static const struct {
     const char *name;
     int kinds;
@@ -50,6 +51,7 @@ static const struct {
     {"--offset", 1 << KIND_GARMENT},
     {"--anchors", 1 << KIND_EYES},
     {"--radius", 1 << KIND_EYES},
+    {"--levels", 1 << KIND_SUBDIVIDE},
     {"--map", ALL_KINDS},
     {"--markers", ALL_KINDS},
     {"--index-base", ALL_KINDS},
@@ -168,7 +170,7 @@ static int parse_args(int argc, char **argv, gen_args *g)
     int npos = 0;
     memset(g, 0, sizeof *g);
     if (argc < 3)
-        return usage_error("generate what? pebbles, garment, eyes or reshape");
+        return usage_error("generate what? pebbles, garment, eyes, reshape or subdivide");
     g->kind_name = argv[2];
     if (strcmp(argv[2], "pebbles") == 0)
         g->kind = KIND_PEBBLES;
@@ -178,8 +180,10 @@ static int parse_args(int argc, char **argv, gen_args *g)
         g->kind = KIND_EYES;
     else if (strcmp(argv[2], "reshape") == 0)
         g->kind = KIND_RESHAPE;
+    else if (strcmp(argv[2], "subdivide") == 0)
+        g->kind = KIND_SUBDIVIDE;
     else
-        return usage_error("unknown generator '%s' (pebbles, garment, eyes or reshape)",
+        return usage_error("unknown generator '%s' (pebbles, garment, eyes, reshape or subdivide)",
                            argv[2]);
     for (int i = 3; i < argc; i++) {
         const char *a = argv[i];
@@ -277,7 +281,7 @@ static dtx_status write_markers(const char *path, const dtx_markers *mk, const i
 
 /* The generator's parameters, parsed from the options. */
 typedef struct {
-    long pieces, subdivide;     /* pebbles */
+    long pieces, subdivide;     /* pebbles; subdivide also subdivide's --levels */
     double gap, thickness;      /* pebbles; gap also eyes */
     int axis;                   /* garment */
     double lo, hi, offset;      /* garment */
@@ -306,6 +310,13 @@ static int parse_params(const gen_args *g, gen_params *p)
             return r;
         if (p->gap < 0 || p->thickness < 0)
             return usage_error("--gap and --thickness must be >= 0");
+    } else if (g->kind == KIND_SUBDIVIDE) {
+        const char *ls = val(g, "--levels");
+        if (!ls)
+            return usage_error("subdivide needs --levels L");
+        if (parse_int(ls, 0, DTX_GEN_MAX_SUBDIVIDE, &p->subdivide) != 0)
+            return usage_error("--levels must be an integer in [0, %d] (got '%s')",
+                               DTX_GEN_MAX_SUBDIVIDE, ls);
     } else if (g->kind == KIND_RESHAPE) {
         if (!val(g, "--axis"))
             return usage_error("reshape needs --axis (the up axis: x, y or z)");
@@ -354,6 +365,11 @@ static dtx_status run_generator(const gen_args *g, const gen_params *p, const dt
                  p->thickness, p->subdivide);
         return dtx_gen_pebbles(in, (int32_t)p->pieces, p->gap, p->thickness, (int)p->subdivide, out,
                                map, err);
+    }
+    if (g->kind == KIND_SUBDIVIDE) {
+        snprintf(what, nwhat, "midpoint subdivision, %ld level%s", p->subdivide,
+                 p->subdivide == 1 ? "" : "s");
+        return dtx_gen_subdivide(in, (int)p->subdivide, out, map, err);
     }
     if (g->kind == KIND_RESHAPE) {
         snprintf(what, nwhat, "%g times thicker, legs below %g of the height along %c %g times "

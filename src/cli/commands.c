@@ -324,6 +324,7 @@ static const dtx_cli_opt generate_opts[] = {
     {"--legs", "L", "reshape: leg lengthening factor"},
     {"--anchors", "I,J,...", "eyes: 0-based vertices the eyes sit at"},
     {"--radius", "R", "eyes: eye radius"},
+    {"--levels", "L", "subdivide: midpoint subdivision levels (each splits every triangle in 4)"},
     {"--map", "MAP.csv", "also write generated_vertex,original_vertex rows"},
     {"--markers", "IN.csv", "a marker file to rewrite for the new mesh"},
     {"--index-base", "0|1", "the index base of --markers"},
@@ -334,13 +335,14 @@ static const dtx_cli_opt generate_opts[] = {
 
 static const dtx_cli_cmd generate = {
     "generate",
-    "make test targets from a mesh: pebbles, garment, eyes, reshape, uvsplit",
+    "make test targets from a mesh: pebbles, garment, eyes, reshape, subdivide, uvsplit",
     "dtx generate pebbles IN OUT.obj --pieces N [--gap G] [--thickness T] [--subdivide L]\n"
     "dtx generate garment IN OUT.obj --axis x|y|z --lo LO --hi HI [--offset D]\n"
     "dtx generate eyes IN OUT.obj --anchors I,J,... [--radius R] [--gap G]\n"
     "dtx generate reshape IN OUT.obj --axis x|y|z [--thicken S] [--legs L] [--lo LO]\n"
+    "dtx generate subdivide IN OUT.obj --levels L   (the input's vertices keep their indices)\n"
     "dtx generate uvsplit IN OUT.obj [--materials 1|2]   (OBJ with vt/vn/usemtl and a .mtl)\n"
-    "    pebbles, garment, eyes and reshape also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]",
+    "    pebbles, garment, eyes, reshape and subdivide also [--map MAP.csv] [--markers IN.csv --index-base 0|1 --markers-out OUT.csv]",
     NULL,
     generate_opts,
     "dtx generate pebbles lion.obj pebble-lion.obj --pieces 240",

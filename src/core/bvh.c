@@ -235,8 +235,29 @@ done:
            (p[2] - out[2]) * (p[2] - out[2]);
 }
 
+/* Squared distance from p to primitive prim, its closest point in pt. */
+static double prim_dist2(const dtx_bvh *b, const double p[3], int32_t prim, double pt[3])
+{
+    if (b->F) {
+        const int32_t *t = b->F + 3 * prim;
+        return dtx_closest_point_triangle(p, b->X + 3 * t[0], b->X + 3 * t[1], b->X + 3 * t[2],
+                                          pt);
+    }
+    for (int k = 0; k < 3; k++)
+        pt[k] = b->X[3 * prim + k];
+    return (p[0] - pt[0]) * (p[0] - pt[0]) + (p[1] - pt[1]) * (p[1] - pt[1]) +
+           (p[2] - pt[2]) * (p[2] - pt[2]);
+}
+
 int32_t dtx_bvh_closest(const dtx_bvh *b, const double p[3], double max_dist,
                         dtx_bvh_filter filter, const void *ctx, double closest[3], double *d2out)
+{
+    return dtx_bvh_closest_from(b, p, max_dist, filter, ctx, -1, closest, d2out);
+}
+
+int32_t dtx_bvh_closest_from(const dtx_bvh *b, const double p[3], double max_dist,
+                             dtx_bvh_filter filter, const void *ctx, int32_t hint,
+                             double closest[3], double *d2out)
 {
     int32_t stack[2 * MAX_DEPTH + 8];
     int sp = 0;
@@ -245,6 +266,19 @@ int32_t dtx_bvh_closest(const dtx_bvh *b, const double p[3], double max_dist,
     double best_pt[3] = {0, 0, 0};
     if (b->nprim == 0)
         return -1;
+    /* The hint taken as a first candidate, on the same terms as the
+     * traversal's (strictly inside max_dist): every primitive at least as
+     * close still lies in a box no farther than it, so the traversal below
+     * visits them all and the tie rule picks the same one. */
+    if (hint >= 0 && hint < b->nprim && (!filter || filter(ctx, hint))) {
+        double pt[3], d2 = prim_dist2(b, p, hint, pt);
+        if (d2 < best_d2) {
+            best_d2 = d2;
+            best = hint;
+            for (int k = 0; k < 3; k++)
+                best_pt[k] = pt[k];
+        }
+    }
     stack[sp++] = 0;
     while (sp > 0) {
         const bvh_node *n = &b->nodes[stack[--sp]];
@@ -256,16 +290,7 @@ int32_t dtx_bvh_closest(const dtx_bvh *b, const double p[3], double max_dist,
                 double pt[3], d2;
                 if (filter && !filter(ctx, prim))
                     continue;
-                if (b->F) {
-                    const int32_t *t = b->F + 3 * prim;
-                    d2 = dtx_closest_point_triangle(p, b->X + 3 * t[0], b->X + 3 * t[1],
-                                                    b->X + 3 * t[2], pt);
-                } else {
-                    for (int k = 0; k < 3; k++)
-                        pt[k] = b->X[3 * prim + k];
-                    d2 = (p[0] - pt[0]) * (p[0] - pt[0]) + (p[1] - pt[1]) * (p[1] - pt[1]) +
-                         (p[2] - pt[2]) * (p[2] - pt[2]);
-                }
+                d2 = prim_dist2(b, p, prim, pt);
                 /* Ties go to the lower index so results never depend on
                  * traversal order. */
                 if (d2 < best_d2 || (d2 == best_d2 && best >= 0 && prim < best)) {

@@ -274,7 +274,8 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
                             const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
                             const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, dtx_error *err)
+                            unsigned char *valid_out, int *solves, int *factorizations,
+                            dtx_error *err)
 {
     const int32_t nvar = nv + nf;
     const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
@@ -284,10 +285,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     cholmod_sparse *K = NULL;
     cholmod_factor *L = NULL;
     cholmod_dense *B = NULL, *Xs = NULL;
-    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL;
+    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL;
     double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
            *cp = NULL;
-    unsigned char *valid = NULL;
+    unsigned char *valid = NULL, *valid_prev = NULL;
+    double wc_prev = -1.0;
     int64_t nadj;
     int32_t nfree = 0;
     double eps_area;
@@ -300,8 +302,12 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     vn = dtx_alloc((size_t)nv, 3 * sizeof *vn, 0);
     cp = dtx_alloc((size_t)nv, 3 * sizeof *cp, 0);
     valid = dtx_alloc((size_t)nv, 1, 1);
-    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid)
+    valid_prev = dtx_alloc((size_t)nv, 1, 1);
+    hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
+    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit)
         goto nomem;
+    for (int32_t v = 0; v < nv; v++)
+        hit[v] = -1;
 
     /* Unknowns: markers are fixed at their target positions, and vertices
      * in no triangle (no term reaches them) stay where they are. */
@@ -428,15 +434,21 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
 #pragma omp parallel for schedule(static)
             for (int32_t v = 0; v < nv; v++) {
                 normal_filter_ctx ctx;
+                int32_t t;
                 valid[v] = 0;
                 if (freeidx[v] < 0)
                     continue;
                 ctx.tnormals = tnormals;
                 ctx.n = vn + 3 * (size_t)v;
                 ctx.cosmax = cosmax;
-                if (dtx_bvh_closest(tbvh, X + 3 * (size_t)v, prm->max_distance, normal_filter,
-                                    &ctx, cp + 3 * (size_t)v, NULL) >= 0)
+                /* The previous phase's closest triangle is the search's
+                 * first bound: the same answer, found sooner. */
+                t = dtx_bvh_closest_from(tbvh, X + 3 * (size_t)v, prm->max_distance,
+                                         normal_filter, &ctx, hit[v], cp + 3 * (size_t)v, NULL);
+                if (t >= 0) {
                     valid[v] = 1;
+                    hit[v] = t;
+                }
             }
             for (int32_t v = 0; v < nv; v++) {
                 int32_t fv = freeidx[v];
@@ -447,11 +459,20 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                     Bx[(size_t)c * nfree + fv] += wc * cp[3 * (size_t)v + c];
             }
         }
-        snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
-        st = dtx__chol_factorize(K, DTX__CHOL_NO_TEAMS, system,
-                                 "; are the markers spread over the whole mesh?", L, &cc, err);
-        if (st != DTX_OK)
-            goto fail;
+        /* The matrix is the base plus wc on the diagonal of the vertices
+         * with a valid closest point: when the weight and that set are the
+         * previous phase's, so is the matrix, bit for bit, and so its factor
+         * (the later phases at the final weight once the fit has settled). */
+        if (phase == 0 || wc != wc_prev || memcmp(valid, valid_prev, (size_t)nv) != 0) {
+            snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
+            st = dtx__chol_factorize(K, DTX__CHOL_NO_TEAMS, system,
+                                     "; are the markers spread over the whole mesh?", L, &cc, err);
+            if (st != DTX_OK)
+                goto fail;
+            (*factorizations)++;
+            wc_prev = wc;
+            memcpy(valid_prev, valid, (size_t)nv);
+        }
         cholmod_free_dense(&Xs, &cc);
         Xs = cholmod_solve(CHOLMOD_A, L, B, &cc);
         if (!Xs)
@@ -482,6 +503,8 @@ fail:
     free(vn);
     free(cp);
     free(valid);
+    free(valid_prev);
+    free(hit);
     free(adj);
     free(rhs_base);
     free(kx_base);
@@ -786,7 +809,8 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
             memcpy(fixpos + 3 * (size_t)m, Tn + 3 * (size_t)markers->tgt[m], 3 * sizeof *fixpos);
         }
         st = dtx__deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
-                              tbvh, tnormals, prm, X, NULL, &out->solves, err);
+                              tbvh, tnormals, prm, X, NULL, &out->solves,
+                              &out->factorizations, err);
         free(fixv);
         free(fixpos);
     }

@@ -327,7 +327,8 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
         goto nomem;
     memcpy(X, Tn, (size_t)tgt->nv * 3 * sizeof *X);
     st = dtx__deform_mesh(tgt->F, tgt->nv, tgt->nf, Tn, fixv, fixpos, markers->n, tets, ntp,
-                          sbvh, snormals, prm, X, anchored, &out->solves, err);
+                          sbvh, snormals, prm, X, anchored, &out->solves,
+                          &out->factorizations, err);
     if (st != DTX_OK)
         goto fail;
     for (int32_t m = 0; m < markers->n; m++)

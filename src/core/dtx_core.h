@@ -72,6 +72,16 @@ typedef int (*dtx_bvh_filter)(const void *ctx, int32_t prim);
 int32_t dtx_bvh_closest(const dtx_bvh *bvh, const double p[3], double max_dist,
                         dtx_bvh_filter filter, const void *ctx, double closest[3], double *d2);
 
+/* dtx_bvh_closest started from a guess: the allowed primitive `hint` (a
+ * triangle or point index, or -1 for none; say the answer of a previous
+ * query from a nearby point) bounds the search from the start, so far
+ * fewer nodes are visited when it is close.  The answer is the same, bit
+ * for bit, as dtx_bvh_closest's with any hint: the closest primitive, ties
+ * to the lower index. */
+int32_t dtx_bvh_closest_from(const dtx_bvh *bvh, const double p[3], double max_dist,
+                             dtx_bvh_filter filter, const void *ctx, int32_t hint,
+                             double closest[3], double *d2);
+
 /* Closest point to p on triangle (a, b, c); returns the squared distance. */
 double dtx_closest_point_triangle(const double p[3], const double a[3], const double b[3],
                                   const double c[3], double out[3]);
@@ -129,6 +139,9 @@ typedef struct {
     int32_t unmatched_tgt; /* sp04: target triangles that needed a fallback pairing;
                               multicomponent: orphan target triangles (in no pair) */
     int solves;            /* linear solves done */
+    int factorizations;    /* numeric factorisations done: a phase whose matrix
+                              is the previous phase's (same weight, same set of
+                              valid closest points) reuses its factor */
     double fit_rms;        /* RMS distance (fraction of target diagonal) of the
                               deformed source vertices to the target surface */
 } dtx_corr;

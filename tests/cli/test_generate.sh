@@ -183,5 +183,23 @@ bad 2 "--thicken and --legs must be > 0" reshape "$lion" "$bad_out" --axis y --l
 bad 2 "--lo must be in [0, 1]" reshape "$lion" "$bad_out" --axis y --lo 1.5
 bad 2 "reshape does not take the option --pieces" reshape "$lion" "$bad_out" --axis y --pieces 3
 
+# subdivide: one level splits each of the lion's 9996 faces in four, adds one
+# vertex per edge (closed mesh: 3 * 9996 / 2), keeps the lion's vertices
+# first with their indices, so the markers come out as they went in.
+check "subdivide failed" "$dtx" generate subdivide "$lion" "$scratch/s.obj" --levels 1 \
+    --map "$scratch/s-map.csv" --markers "$data/markers.csv" --index-base 0 \
+    --markers-out "$scratch/s-mk.csv" 2> "$scratch/s.err"
+check "subdivide: not 4 x 9996 faces" test "$(count '^f ' "$scratch/s.obj")" -eq 39984
+check "subdivide: not 5000 + 14994 vertices" test "$(count '^v ' "$scratch/s.obj")" -eq 19994
+check "subdivide: the lion's vertices moved" cmp -s <(awk '$1 == "v" && n++ < 5000 { print $2 + 0, $3 + 0, $4 + 0 }' "$scratch/s.obj") \
+    <(awk '$1 == "v" { print $2 + 0, $3 + 0, $4 + 0 }' "$lion")
+check "subdivide: map not v -> v then -1" awk -F, 'NR > 1 { v = NR - 2; if ($1 != v || $2 != (v < 5000 ? v : -1)) exit 1 }' \
+    "$scratch/s-map.csv"
+check "subdivide: markers changed" cmp -s <(grep -v '^#' "$data/markers.csv") <(grep -v '^#' "$scratch/s-mk.csv")
+check "subdivide: not one component" grep -q ' 1 connected components' "$scratch/s.err"
+bad 2 "subdivide needs --levels" subdivide "$lion" "$bad_out"
+bad 2 "--levels must be an integer in [0, 8]" subdivide "$lion" "$bad_out" --levels 9
+bad 2 "subdivide does not take the option --pieces" subdivide "$lion" "$bad_out" --levels 1 --pieces 3
+
 echo "generate: $checks passed, $fails failed"
 [[ $fails -eq 0 ]]

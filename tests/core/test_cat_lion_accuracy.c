@@ -43,8 +43,9 @@ int main(void)
 
     dtx_corr_params_default(&prm);
     CHECK_OK(dtx_sp04_correspond(&cat, &lion, &mk, &prm, &corr, &err), &err);
-    printf("correspondence: %lld pairs, fit RMS %.3g of the diagonal, %d solves\n",
-           (long long)corr.npairs, corr.fit_rms, corr.solves);
+    printf("correspondence: %lld pairs, fit RMS %.3g of the diagonal, %d solves, %d "
+           "factorisations\n",
+           (long long)corr.npairs, corr.fit_rms, corr.solves, corr.factorizations);
     CHECK_OK(dtx_sp04_plan_create(&cat, &lion, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED, NULL,
                                   NULL, 0, &plan, &err),
              &err);
