@@ -261,14 +261,17 @@ for _ in $(seq 600); do
 done
 echo "job $id suspended with $stopped of $NFRAMES frames marked done"
 check "long job stopped mid-run (frames done in its partial)" test "$stopped" -gt 0
-# Requeue (Slurm kills the running job and queues it again; a job requeued
-# while suspended would be held, so it is resumed first).  Slurm delays a
-# requeued job's start by two minutes: start it now.
-scontrol resume "$id" 2> /dev/null || true
+# Requeue while it is stopped: Slurm kills the job (SIGKILL ends stopped
+# processes too) and queues it again, held (a job requeued while suspended
+# is held until released).  Resuming it first instead raced Slurm's own
+# SIGCONT/SIGSTOP handling and once left the requeued run stopped.  Slurm
+# also delays a requeued job's start by two minutes: release it, start it now.
 scontrol requeue "$id"
 for _ in $(seq 100); do
-    [ "$(job_state "$id")" = PENDING ] && scontrol update JobId="$id" StartTime=now 2> /dev/null &&
-        break
+    if [ "$(job_state "$id")" = PENDING ]; then
+        scontrol release "$id" 2> /dev/null || true
+        scontrol update JobId="$id" StartTime=now 2> /dev/null && break
+    fi
     sleep 0.1
 done
 check "requeued job $id completed" wait_done "$id"
