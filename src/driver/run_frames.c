@@ -58,6 +58,44 @@ static void progress_step(run_state *r, int64_t n)
     }
 }
 
+/* A block's outcome, agreed one block late with independent writes: each
+ * rank posts {failed, frames} at the end of a block and waits for the sum
+ * at the end of the next, so ranks are not held in step by a barrier per
+ * block (which made them write at the same moment, into one file, and wait
+ * for each other's slowest block).  Every rank posts the same number of
+ * sums; when one shows a failure, every rank calls run_agree at the same
+ * point to hear which. */
+typedef struct {
+    MPI_Request req;
+    int64_t sum[2]; /* ranks failed, frames written */
+    int pending;
+} block_agree;
+
+/* Waits for the sum posted last (if any): progress on rank 0, and
+ * run_agree(st) on every rank when some rank failed. */
+static dtx_status block_agree_wait(run_state *r, block_agree *ba, dtx_status st,
+                                   dtx_error *err)
+{
+    if (!ba->pending)
+        return st;
+    MPI_Wait(&ba->req, MPI_STATUS_IGNORE);
+    ba->pending = 0;
+    if (ba->sum[0] > 0)
+        return run_agree(r->comm, st, err);
+    if (r->rank == 0) {
+        r->frames_done += ba->sum[1];
+        dtx_progress_update(&r->prog, r->frames_done, run_wtime());
+    }
+    return st;
+}
+
+static void block_agree_post(run_state *r, block_agree *ba, dtx_status st, int64_t n)
+{
+    int64_t mine[2] = {st != DTX_OK, st == DTX_OK ? n : 0};
+    MPI_Iallreduce(mine, ba->sum, 2, MPI_INT64_T, MPI_SUM, r->comm, &ba->req);
+    ba->pending = 1;
+}
+
 static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *sc,
                              int64_t f0, int64_t n, const double *Xt, dtx_error *err)
 {
@@ -135,16 +173,22 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
             goto done;
     }
 
+    /* Collective writes need every rank there and none failed: a blocking
+     * agreement before and after each write.  Independent writes need
+     * only block_agree. */
+    const int coll = r->job.collective_io;
+    block_agree ba;
+    memset(&ba, 0, sizeof ba);
     for (int64_t k = 0; k < nseg_max; k++) {
         int64_t f0 = 0, n = 0;
         double t0, t1, t2;
-        if (k < nseg) {
+        if (k < nseg && st == DTX_OK) {
             f0 = todo[seg[k]] * r->align;
             n = (todo[seg[k + 1] - 1] + 1) * r->align - f0;
             n = f0 + n > nframes ? nframes - f0 : n;
         }
         t0 = run_wtime();
-        st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
+        st = st == DTX_OK && n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : st;
         t1 = run_wtime();
         if (st == DTX_OK && n > 0) {
             dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
@@ -175,24 +219,33 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
                 run_solves_add(&rc->sv, f0 + i, fb->info[i].iterations, fb->info[i].converged,
                                fb->info[i].inverted, fb->fstats + DTX_H5_FRAME_STATS * i);
         }
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+        if (coll && (st = run_agree(r->comm, st, err)) != DTX_OK)
             goto done;
         /* The solver figures first: dtx_h5_result_write marks frames done. */
-        if (r->method->iterative)
+        if (st == DTX_OK && r->method->iterative)
             st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats,
-                                                 r->job.collective_io, err);
+                                                 coll, err);
         if (st == DTX_OK)
-            st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res,
-                                 r->job.collective_io, err);
+            st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, coll, err);
         if (st == DTX_OK && r->job.export_obj_dir)
             st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
         r->tm.read += t1 - t0;
         r->tm.transfer += t2 - t1;
         r->tm.write += run_wtime() - t2;
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
-            goto done;
-        progress_step(r, n);
+        if (coll) {
+            if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+                goto done;
+            progress_step(r, n);
+        } else {
+            /* A rank that failed goes on through the loop doing nothing
+             * until the others have heard of it, one block later. */
+            if ((st = block_agree_wait(r, &ba, st, err)) != DTX_OK && ba.sum[0] > 0)
+                goto done;
+            block_agree_post(r, &ba, st, n);
+        }
     }
+    if (!coll)
+        st = block_agree_wait(r, &ba, st, err);
 done:
     free(todo);
     free(seg);
