@@ -2,8 +2,11 @@
  * run_frames.c: phase 6 of `dtx run`, the frame loop: per target, the
  * transfer plan (factored once on every rank); per result, the frame
  * groups not yet done are dealt to the ranks (run_schedule.h) and each
- * rank reads, transfers and writes its groups in blocks, with collective
- * writes that every rank joins, also ranks with no frames left.
+ * rank reads, transfers and writes its groups in blocks: with collective
+ * writes every rank joins each write, also ranks with no frames left; with
+ * independent writes (the default) ranks agree on each block one block
+ * later, and a rank with several threads overlaps its I/O with its
+ * transfers (transfer_overlapped).
  */
 #include "run_internal.h"
 
