@@ -254,7 +254,7 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
     const target_ctx *tc = &r->tg[t];
     const seq_ctx *sc = &r->sq[s];
     const int64_t nframes = rc->res.nframes;
-    const int levels = omp_get_max_active_levels();
+    const int levels = omp_get_max_active_levels(), nthreads = omp_get_max_threads();
     block_agree ba;
     int64_t f0, n;
     double t0 = run_wtime();
@@ -293,6 +293,10 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
                     /* No MPI off the main thread (MPI_THREAD_FUNNELED),
                      * not even MPI_Wtime. */
                     double a = omp_get_wtime();
+                    /* The method's threads and the I/O thread together as
+                     * many as the rank was given: more would make the
+                     * method's threads wait for one another's groups. */
+                    omp_set_num_threads(nt > 1 && nthreads > 2 ? nthreads - 1 : 1);
                     st_tr = transfer_block(r, tc, plan, n, cur, &err_tr);
                     s_tr = omp_get_wtime() - a;
                 }
