@@ -2,12 +2,18 @@
  * run_frames.c: phase 6 of `dtx run`, the frame loop: per target, the
  * transfer plan (factored once on every rank); per result, the frame
  * groups not yet done are dealt to the ranks (run_schedule.h) and each
- * rank reads, transfers and writes its groups in blocks, with collective
- * writes that every rank joins, also ranks with no frames left.
+ * rank reads, transfers and writes its groups in blocks: with collective
+ * writes every rank joins each write, also ranks with no frames left; with
+ * independent writes (the default) ranks agree on each block one block
+ * later, and a rank with several threads overlaps its I/O with its
+ * transfers (transfer_overlapped).
  */
 #include "run_internal.h"
 
 #include <math.h>
+#ifdef _OPENMP
+#include <omp.h>
+#endif
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -58,6 +64,44 @@ static void progress_step(run_state *r, int64_t n)
     }
 }
 
+/* A block's outcome, agreed one block late with independent writes: each
+ * rank posts {failed, frames} at the end of a block and waits for the sum
+ * at the end of the next, so ranks are not held in step by a barrier per
+ * block (which made them write at the same moment, into one file, and wait
+ * for each other's slowest block).  Every rank posts the same number of
+ * sums; when one shows a failure, every rank calls run_agree at the same
+ * point to hear which. */
+typedef struct {
+    MPI_Request req;
+    int64_t sum[2]; /* ranks failed, frames written */
+    int pending;
+} block_agree;
+
+/* Waits for the sum posted last (if any): progress on rank 0, and
+ * run_agree(st) on every rank when some rank failed. */
+static dtx_status block_agree_wait(run_state *r, block_agree *ba, dtx_status st,
+                                   dtx_error *err)
+{
+    if (!ba->pending)
+        return st;
+    MPI_Wait(&ba->req, MPI_STATUS_IGNORE);
+    ba->pending = 0;
+    if (ba->sum[0] > 0)
+        return run_agree(r->comm, st, err);
+    if (r->rank == 0) {
+        r->frames_done += ba->sum[1];
+        dtx_progress_update(&r->prog, r->frames_done, run_wtime());
+    }
+    return st;
+}
+
+static void block_agree_post(run_state *r, block_agree *ba, dtx_status st, int64_t n)
+{
+    int64_t mine[2] = {st != DTX_OK, st == DTX_OK ? n : 0};
+    MPI_Iallreduce(mine, ba->sum, 2, MPI_INT64_T, MPI_SUM, r->comm, &ba->req);
+    ba->pending = 1;
+}
+
 static dtx_status export_obj(run_state *r, const target_ctx *tc, const seq_ctx *sc,
                              int64_t f0, int64_t n, const double *Xt, dtx_error *err)
 {
@@ -96,11 +140,207 @@ static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int
     return DTX_OK;
 }
 
+/* A transferred block's residuals checked and counted, in frame order:
+ * frames f0 .. f0 + n, from sources Xs, residuals res, solver figures
+ * info, frame_stats filled for iterative methods. */
+static dtx_status check_block(run_state *r, result_ctx *rc, const target_ctx *tc,
+                              const seq_ctx *sc, int64_t f0, int64_t n, const double *Xs,
+                              const double *res, const dtx_frame_info *info, int32_t *fstats,
+                              dtx_error *err)
+{
+    for (int64_t i = 0; i < n; i++) {
+        if (!isfinite(res[i])) {
+            /* Name the source coordinate when one is to blame. */
+            dtx_status st = check_frames_finite(r, sc, f0 + i, 1,
+                                                Xs + (size_t)i * 3 * (size_t)r->src.nv, err);
+            if (st == DTX_OK)
+                st = dtx_seterr(err, DTX_ENONFINITE,
+                                "%s:%s frame %lld: the transfer onto \"%s\" produced "
+                                "non-finite values",
+                                r->job.source_file, sc->path, (long long)(f0 + i),
+                                tc->tj->name);
+            return st;
+        }
+        run_stats_add(&rc->st, res[i]);
+        if (r->method->iterative) /* inverted -1 where not counted */
+            run_solves_add(&rc->sv, f0 + i, info[i].iterations, info[i].converged,
+                           info[i].inverted, fstats + DTX_H5_FRAME_STATS * i);
+    }
+    return DTX_OK;
+}
+
+static int omp_max_threads(void)
+{
+#ifdef _OPENMP
+    return omp_get_max_threads();
+#else
+    return 1;
+#endif
+}
+
+/* One set of frame buffers of fb->block frames. */
+static dtx_status buffers_alloc(const run_state *r, int32_t maxnv, frame_buffers *fb,
+                                dtx_error *err)
+{
+    fb->Xs = dtx_alloc((size_t)fb->block * (size_t)r->src_weld.nv, 3 * sizeof *fb->Xs, 0);
+    fb->Xt = dtx_alloc((size_t)fb->block * (size_t)maxnv, 3 * sizeof *fb->Xt, 0);
+    fb->res = dtx_alloc((size_t)fb->block, sizeof *fb->res, 0);
+    fb->info = dtx_alloc((size_t)fb->block, sizeof *fb->info, 1);
+    if (r->method->iterative)
+        fb->fstats = dtx_alloc((size_t)fb->block, DTX_H5_FRAME_STATS * sizeof *fb->fstats, 1);
+    return fb->Xs && fb->Xt && fb->res && fb->info && (!r->method->iterative || fb->fstats)
+               ? DTX_OK
+               : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
+}
+
+/* Frames [*f0, *f0 + *n) of this rank's block k (none past its last). */
+static void block_range(const run_state *r, const int64_t *todo, const int64_t *seg,
+                        int64_t nseg, int64_t nframes, int64_t k, int64_t *f0, int64_t *n)
+{
+    *f0 = *n = 0;
+    if (k < nseg) {
+        *f0 = todo[seg[k]] * r->align;
+        *n = (todo[seg[k + 1] - 1] + 1) * r->align - *f0;
+        *n = *f0 + *n > nframes ? nframes - *f0 : *n;
+    }
+}
+
+/* Block fb (n frames, read into fb->Xs) transferred into fb->Xt, fb->res
+ * and fb->info.  No MPI or HDF5: any thread may run it. */
+static dtx_status transfer_block(run_state *r, const target_ctx *tc, void *plan, int64_t n,
+                                 frame_buffers *fb, dtx_error *err)
+{
+    dtx_status st;
+    dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
+    st = r->method->apply(plan, n, fb->Xs, fb->Xt, fb->info, err);
+    for (int64_t i = 0; st == DTX_OK && i < n; i++)
+        fb->res[i] = fb->info[i].residual;
+    if (st == DTX_OK) /* twins identical, in the asset's order */
+        dtx_weld_result_frames(&tc->weld, fb->Xt, n);
+    return st;
+}
+
+/* Block fb (frames f0 .. f0 + n) written: the solver figures first, as
+ * dtx_h5_result_write marks the frames done (after their positions). */
+static dtx_status write_block(run_state *r, result_ctx *rc, const target_ctx *tc,
+                              const seq_ctx *sc, int64_t f0, int64_t n, const frame_buffers *fb,
+                              int coll, dtx_error *err)
+{
+    dtx_status st = DTX_OK;
+    if (r->method->iterative)
+        st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats, coll,
+                                             err);
+    if (st == DTX_OK)
+        st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, coll, err);
+    if (st == DTX_OK && r->job.export_obj_dir)
+        st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
+    return st;
+}
+
+#ifdef _OPENMP
+/* With more than one thread per rank and independent writes, a rank's I/O
+ * overlaps its transfers.  In step k the main thread (the one that makes
+ * the MPI and HDF5 calls) writes block k - 1 and reads block k + 1 while a
+ * second thread transfers block k with the method's own threads (nested),
+ * each block in its own set of buffers (fb[k % 2]: block k + 1 is read
+ * into Xs of the set whose Xt is being written).  Blocks, frames and their
+ * arithmetic are those of the plain loop, so results are bitwise the same;
+ * residuals are checked and counted in frame order on the main thread. */
+static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                      const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                      int64_t nseg_max, dtx_error *err)
+{
+    result_ctx *rc = RESULT(r, t, s);
+    const target_ctx *tc = &r->tg[t];
+    const seq_ctx *sc = &r->sq[s];
+    const int64_t nframes = rc->res.nframes;
+    const int levels = omp_get_max_active_levels(), nthreads = omp_get_max_threads();
+    block_agree ba;
+    int64_t f0, n;
+    double t0 = run_wtime();
+    dtx_status st;
+    memset(&ba, 0, sizeof ba);
+    block_range(r, todo, seg, nseg, nframes, 0, &f0, &n);
+    st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb[0].Xs, err) : DTX_OK;
+    r->tm.read += run_wtime() - t0;
+    omp_set_max_active_levels(levels > 2 ? levels : 2);
+    for (int64_t k = 0; k <= nseg_max; k++) {
+        frame_buffers *cur = &fb[k % 2], *other = &fb[(k + 1) % 2];
+        int64_t pf0 = 0, pn = 0, nf0 = 0, nn = 0;
+        dtx_status st_io = DTX_OK, st_tr = DTX_OK;
+        dtx_error err_tr;
+        double s_rd = 0, s_wr = 0, s_tr = 0;
+        memset(&err_tr, 0, sizeof err_tr);
+        if (st == DTX_OK) {
+            if (k > 0)
+                block_range(r, todo, seg, nseg, nframes, k - 1, &pf0, &pn);
+            block_range(r, todo, seg, nseg, nframes, k, &f0, &n);
+            block_range(r, todo, seg, nseg, nframes, k + 1, &nf0, &nn);
+#pragma omp parallel num_threads(2)
+            {
+                const int tid = omp_get_thread_num(), nt = omp_get_num_threads();
+                if (tid == 0) {
+                    double a = run_wtime(), b;
+                    if (pn > 0)
+                        st_io = write_block(r, rc, tc, sc, pf0, pn, other, 0, err);
+                    b = run_wtime();
+                    if (st_io == DTX_OK && nn > 0)
+                        st_io = dtx_h5_seq_read(&sc->seq, nf0, nn, other->Xs, err);
+                    s_wr = b - a;
+                    s_rd = run_wtime() - b;
+                }
+                if ((tid == 1 || nt == 1) && n > 0) {
+                    /* No MPI off the main thread (MPI_THREAD_FUNNELED),
+                     * not even MPI_Wtime. */
+                    double a = omp_get_wtime();
+                    /* The method's threads and the I/O thread together as
+                     * many as the rank was given: more would make the
+                     * method's threads wait for one another's groups. */
+                    omp_set_num_threads(nt > 1 && nthreads > 2 ? nthreads - 1 : 1);
+                    st_tr = transfer_block(r, tc, plan, n, cur, &err_tr);
+                    s_tr = omp_get_wtime() - a;
+                }
+            }
+            r->tm.read += s_rd;
+            r->tm.write += s_wr;
+            r->tm.transfer += s_tr;
+            st = st_io;
+            if (st == DTX_OK && st_tr != DTX_OK) {
+                *err = err_tr;
+                st = st_tr;
+            }
+            if (st == DTX_OK && n > 0)
+                st = check_block(r, rc, tc, sc, f0, n, cur->Xs, cur->res, cur->info,
+                                 cur->fstats, err);
+            if (st == DTX_OK && k == nseg_max / 2)
+                st = run_injected_fault(r, "transfer", err);
+        }
+        /* A rank that failed goes on through the loop doing nothing until
+         * the others have heard of it, one step later. */
+        if ((st = block_agree_wait(r, &ba, st, err)) != DTX_OK && ba.sum[0] > 0)
+            break;
+        block_agree_post(r, &ba, st, st == DTX_OK ? pn : 0);
+    }
+    st = block_agree_wait(r, &ba, st, err);
+    omp_set_max_active_levels(levels);
+    return st;
+}
+#else
+static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                      const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                      int64_t nseg_max, dtx_error *err)
+{
+    (void)r, (void)t, (void)s, (void)plan, (void)fb, (void)todo, (void)seg, (void)nseg;
+    (void)nseg_max;
+    return dtx_seterr(err, DTX_EINVAL, "no threads to overlap I/O with");
+}
+#endif
+
 /* Transfers the frames of result (t, s) not yet done, each rank its share,
  * in blocks, through plan (of r->method); with collective I/O every rank
  * makes the same number of writes (ranks without frames write nothing). */
 static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_buffers *fb,
-                                  dtx_error *err)
+                                  int nsets, dtx_error *err)
 {
     result_ctx *rc = RESULT(r, t, s);
     const target_ctx *tc = &r->tg[t];
@@ -135,64 +375,52 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
             goto done;
     }
 
+    if (nsets == 2) {
+        st = transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
+        goto done;
+    }
+    /* Collective writes need every rank there and none failed: a blocking
+     * agreement before and after each write.  Independent writes need
+     * only block_agree. */
+    const int coll = r->job.collective_io;
+    block_agree ba;
+    memset(&ba, 0, sizeof ba);
     for (int64_t k = 0; k < nseg_max; k++) {
         int64_t f0 = 0, n = 0;
         double t0, t1, t2;
-        if (k < nseg) {
-            f0 = todo[seg[k]] * r->align;
-            n = (todo[seg[k + 1] - 1] + 1) * r->align - f0;
-            n = f0 + n > nframes ? nframes - f0 : n;
-        }
+        if (st == DTX_OK)
+            block_range(r, todo, seg, nseg, nframes, k, &f0, &n);
         t0 = run_wtime();
-        st = n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : DTX_OK;
+        st = st == DTX_OK && n > 0 ? dtx_h5_seq_read(&sc->seq, f0, n, fb->Xs, err) : st;
         t1 = run_wtime();
-        if (st == DTX_OK && n > 0) {
-            dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
-            st = r->method->apply(plan, n, fb->Xs, fb->Xt, fb->info, err);
-            for (int64_t i = 0; st == DTX_OK && i < n; i++)
-                fb->res[i] = fb->info[i].residual;
-            if (st == DTX_OK) /* twins identical, in the asset's order */
-                dtx_weld_result_frames(&tc->weld, fb->Xt, n);
-        }
+        if (st == DTX_OK && n > 0)
+            st = transfer_block(r, tc, plan, n, fb, err);
         if (st == DTX_OK && k == nseg_max / 2)
             st = run_injected_fault(r, "transfer", err);
         t2 = run_wtime();
-        for (int64_t i = 0; st == DTX_OK && i < n; i++) {
-            if (!isfinite(fb->res[i])) {
-                /* Name the source coordinate when one is to blame. */
-                st = check_frames_finite(r, sc, f0 + i, 1,
-                                         fb->Xs + (size_t)i * 3 * (size_t)r->src.nv, err);
-                if (st == DTX_OK)
-                    st = dtx_seterr(err, DTX_ENONFINITE,
-                                    "%s:%s frame %lld: the transfer onto \"%s\" produced "
-                                    "non-finite values",
-                                    r->job.source_file, sc->path, (long long)(f0 + i),
-                                    tc->tj->name);
-                break;
-            }
-            run_stats_add(&rc->st, fb->res[i]);
-            if (r->method->iterative) /* inverted -1 where not counted */
-                run_solves_add(&rc->sv, f0 + i, fb->info[i].iterations, fb->info[i].converged,
-                               fb->info[i].inverted, fb->fstats + DTX_H5_FRAME_STATS * i);
-        }
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
-            goto done;
-        /* The solver figures first: dtx_h5_result_write marks frames done. */
-        if (r->method->iterative)
-            st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats,
-                                                 r->job.collective_io, err);
         if (st == DTX_OK)
-            st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res,
-                                 r->job.collective_io, err);
-        if (st == DTX_OK && r->job.export_obj_dir)
-            st = export_obj(r, tc, sc, f0, n, fb->Xt, err);
+            st = check_block(r, rc, tc, sc, f0, n, fb->Xs, fb->res, fb->info, fb->fstats, err);
+        if (coll && (st = run_agree(r->comm, st, err)) != DTX_OK)
+            goto done;
+        if (st == DTX_OK)
+            st = write_block(r, rc, tc, sc, f0, n, fb, coll, err);
         r->tm.read += t1 - t0;
         r->tm.transfer += t2 - t1;
         r->tm.write += run_wtime() - t2;
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK)
-            goto done;
-        progress_step(r, n);
+        if (coll) {
+            if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+                goto done;
+            progress_step(r, n);
+        } else {
+            /* A rank that failed goes on through the loop doing nothing
+             * until the others have heard of it, one block later. */
+            if ((st = block_agree_wait(r, &ba, st, err)) != DTX_OK && ba.sum[0] > 0)
+                goto done;
+            block_agree_post(r, &ba, st, n);
+        }
     }
+    if (!coll)
+        st = block_agree_wait(r, &ba, st, err);
 done:
     free(todo);
     free(seg);
@@ -287,24 +515,22 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     int32_t maxnv = 0;
-    frame_buffers fb;
-    memset(&fb, 0, sizeof fb);
+    frame_buffers fb[2];
+    int nsets;
+    memset(fb, 0, sizeof fb);
     /* Blocks are whole solve groups, so frame arithmetic never depends on
      * how frames are split over ranks or calls. */
-    fb.block = r->job.block_frames;
-    if (fb.block % r->align)
-        fb.block += r->align - fb.block % r->align;
+    fb[0].block = r->job.block_frames;
+    if (fb[0].block % r->align)
+        fb[0].block += r->align - fb[0].block % r->align;
     for (int t = 0; t < r->nt; t++)
         maxnv = r->tg[t].weld.nv > maxnv ? r->tg[t].weld.nv : maxnv;
-    fb.Xs = dtx_alloc((size_t)fb.block * (size_t)r->src_weld.nv, 3 * sizeof *fb.Xs, 0);
-    fb.Xt = dtx_alloc((size_t)fb.block * (size_t)maxnv, 3 * sizeof *fb.Xt, 0);
-    fb.res = dtx_alloc((size_t)fb.block, sizeof *fb.res, 0);
-    fb.info = dtx_alloc((size_t)fb.block, sizeof *fb.info, 1);
-    if (r->method->iterative)
-        fb.fstats = dtx_alloc((size_t)fb.block, DTX_H5_FRAME_STATS * sizeof *fb.fstats, 1);
-    st = fb.Xs && fb.Xt && fb.res && fb.info && (!r->method->iterative || fb.fstats)
-             ? DTX_OK
-             : dtx_seterr(err, DTX_ENOMEM, "out of memory for frames");
+    fb[1].block = fb[0].block;
+    /* A second set of buffers when a rank's I/O overlaps its transfers. */
+    nsets = !r->job.collective_io && omp_max_threads() > 1 ? 2 : 1;
+    st = DTX_OK;
+    for (int b = 0; b < nsets && st == DTX_OK; b++)
+        st = buffers_alloc(r, maxnv, &fb[b], err);
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto done;
 
@@ -328,16 +554,18 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
         }
         for (int s = 0; s < r->ns && st == DTX_OK; s++)
             if (!RESULT(r, t, s)->finished)
-                st = transfer_result(r, t, s, plan, &fb, err);
+                st = transfer_result(r, t, s, plan, fb, nsets, err);
         r->method->plan_free(&plan);
         if (st != DTX_OK)
             goto done;
     }
 done:
-    free(fb.Xs);
-    free(fb.Xt);
-    free(fb.res);
-    free(fb.info);
-    free(fb.fstats);
+    for (int b = 0; b < 2; b++) {
+        free(fb[b].Xs);
+        free(fb[b].Xt);
+        free(fb[b].res);
+        free(fb[b].info);
+        free(fb[b].fstats);
+    }
     return st;
 }

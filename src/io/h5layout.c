@@ -2909,25 +2909,42 @@ dtx_status dtx_h5_results_finish(dtx_h5_result *const *res, int n, int replace,
     if (n <= 0)
         return DTX_OK;
     file = res[0]->file;
-    /* One flush for all (with MPI-IO it is an fsync): afterwards the
-     * frame_done writes of every rank are in the file, and the barrier makes
-     * sure every rank has finished flushing before any reads them. */
-    if ((st = dtx_h5_flush(file, err)) != DTX_OK)
-        return st;
-    if (res[0]->parallel && file_comm(file, &comm) == 1) {
+    /* No flush (under MPI-IO a flush is an fsync, half a second at the end
+     * of a 20,000-frame run, and it would make nothing more durable: a
+     * killed process loses nothing the kernel already holds, and the
+     * marks and the rename after this point are not synced either).  Each
+     * rank reads frame_done after the barrier, which every rank reaches
+     * only once its own writes have returned; a process always reads its
+     * own writes, and the flags of earlier runs are in the file since it
+     * was opened, so a frame is done when any rank reads it as done: the
+     * ranks' readings are combined with a maximum. */
+    if (res[0]->parallel && file_comm(file, &comm) == 1)
         MPI_Barrier(comm);
-        MPI_Comm_free(&comm);
-    }
     for (int k = 0; k < n && st == DTX_OK; k++) {
         dtx_h5_result *r = res[k];
+        int ok;
         free(done);
         done = dtx_alloc((size_t)r->nframes, 1, 0);
-        if (!done) {
+        if (!done)
             st = ferr(err, DTX_ENOMEM, r->file, r->path, "out of memory");
+        else
+            st = dtx_h5_result_read_done(r, done, err);
+        /* Every rank gets here with the same results in the same order:
+         * the ranks agree on the reads before combining them, so none is
+         * left waiting when one of them failed. */
+        ok = st == DTX_OK;
+        if (comm != MPI_COMM_NULL)
+            MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_MIN, comm);
+        if (!ok) {
+            if (st == DTX_OK)
+                st = ferr(err, DTX_EIO, r->file, r->path,
+                          "another rank could not read frame_done");
             break;
         }
-        if ((st = dtx_h5_result_read_done(r, done, err)) != DTX_OK)
-            break;
+        for (int64_t i0 = 0; comm != MPI_COMM_NULL && i0 < r->nframes; i0 += 1 << 30) {
+            int64_t m = r->nframes - i0 < (1 << 30) ? r->nframes - i0 : (1 << 30);
+            MPI_Allreduce(MPI_IN_PLACE, done + i0, (int)m, MPI_UINT8_T, MPI_MAX, comm);
+        }
         for (int64_t i = 0; i < r->nframes; i++)
             if (done[i] != 1) {
                 st = ferr(err, DTX_EINVAL, r->file, r->path,
@@ -2936,6 +2953,8 @@ dtx_status dtx_h5_results_finish(dtx_h5_result *const *res, int n, int replace,
                 break;
             }
     }
+    if (comm != MPI_COMM_NULL)
+        MPI_Comm_free(&comm);
     free(done);
     /* Only when every result is whole: mark them and move them into place. */
     for (int k = 0; k < n && st == DTX_OK; k++)

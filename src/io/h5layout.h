@@ -552,17 +552,19 @@ dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t c
 /* Reads frame_done into done (T bytes, caller-allocated). */
 dtx_status dtx_h5_result_read_done(const dtx_h5_result *res, uint8_t *done, dtx_error *err);
 
-/* Finishes a result: flushes the file, checks every frame_done is 1
- * (DTX_EINVAL naming the first missing frame otherwise), sets complete = 1,
- * moves the group to its final name (replacing an existing result there
- * when replace != 0) and flushes again.  Collective in parallel. */
+/* Finishes a result: checks every frame_done is 1 (DTX_EINVAL naming the
+ * first missing frame otherwise), sets complete = 1, moves the group to its
+ * final name (replacing an existing result there when replace != 0) and
+ * flushes the file.  Collective in parallel. */
 dtx_status dtx_h5_result_finish(dtx_h5_result *res, int replace, dtx_error *err);
 
-/* As dtx_h5_result_finish for n results of one file at once, with one
- * flush before the checks and none after (closing the file, or a flush,
- * makes the marks durable): nothing is marked or moved unless every result
- * has all its frames.  Collective in parallel (same results, same order on
- * every rank). */
+/* As dtx_h5_result_finish for n results of one file at once, with no
+ * flush (closing the file, or a flush, writes the marks out): nothing is
+ * marked or moved unless every result has all its frames.  In parallel
+ * each rank reads frame_done after a barrier and the readings are combined
+ * (a frame is done when any rank, such as the one that wrote it, reads it
+ * as done), so no fsync is needed to see other ranks' writes.  Collective
+ * in parallel (same results, same order on every rank). */
 dtx_status dtx_h5_results_finish(dtx_h5_result *const *res, int n, int replace,
                                  dtx_error *err);
 
