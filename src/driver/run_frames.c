@@ -526,8 +526,14 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
     for (int t = 0; t < r->nt; t++)
         maxnv = r->tg[t].weld.nv > maxnv ? r->tg[t].weld.nv : maxnv;
     fb[1].block = fb[0].block;
-    /* A second set of buffers when a rank's I/O overlaps its transfers. */
-    nsets = !r->job.collective_io && omp_max_threads() > 1 ? 2 : 1;
+    /* A second set of buffers when a rank's I/O overlaps its transfers:
+     * methods that solve frames in groups (sp04 and the methods built on
+     * its solve), whose blocks take milliseconds, so that I/O is a large
+     * share.  A method that deals single frames (springs: seconds each)
+     * keeps all of the rank's threads for them: overlapped, its frames ran
+     * on the one remaining thread, and 1 rank x 2 threads of driver.springs
+     * took 282 s instead of 10 s. */
+    nsets = !r->job.collective_io && omp_max_threads() > 1 && r->align > 1 ? 2 : 1;
     st = DTX_OK;
     for (int b = 0; b < nsets && st == DTX_OK; b++)
         st = buffers_alloc(r, maxnv, &fb[b], err);
