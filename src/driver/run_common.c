@@ -8,6 +8,7 @@
 #include "mpi_util.h"
 
 #include <errno.h>
+#include <signal.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -30,14 +31,19 @@ double run_wtime(void) { return MPI_Wtime(); }
 
 /* Fault injection for the tests: with DTX_FAULT=PHASE@RANK in the
  * environment, rank RANK fails at phase PHASE (read, correspondence,
- * output, transfer, finish) as a real error there would. */
+ * output, transfer, finish) as a real error there would; with
+ * DTX_FAULT=PHASE@RANK:kill it dies there of SIGKILL instead, a crash at a
+ * known point (in the frame loop: half of its blocks written). */
 dtx_status run_injected_fault(const run_state *r, const char *phase, dtx_error *err)
 {
     const char *f = getenv("DTX_FAULT");
     const char *at = f ? strchr(f, '@') : NULL;
+    char *end = NULL;
     if (!at || (size_t)(at - f) != strlen(phase) || strncmp(f, phase, strlen(phase)) != 0 ||
-        atoi(at + 1) != r->rank)
+        strtol(at + 1, &end, 10) != r->rank)
         return DTX_OK;
+    if (strcmp(end, ":kill") == 0)
+        raise(SIGKILL);
     return dtx_seterr(err, DTX_EIO, "injected fault at phase %s on rank %d (DTX_FAULT=%s)",
                       phase, r->rank, f);
 }
