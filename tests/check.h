@@ -10,6 +10,7 @@
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 static int check_passed_ = 0, check_failed_ = 0;
 
@@ -77,6 +78,16 @@ static int check_passed_ = 0, check_failed_ = 0;
                     dtx_status_name(s_), e_->msg);                                      \
         }                                                                               \
     } while (0)
+
+/* Whether s (may be NULL) contains sub; prints both when not.  For use
+ * inside CHECK(): CHECK(check_contains(e.msg, "frame 3")). */
+static inline int check_contains(const char *s, const char *sub)
+{
+    int ok = s && strstr(s, sub) != NULL;
+    if (!ok)
+        fprintf(stderr, "  expected \"%s\" in \"%s\"\n", sub, s ? s : "(null)");
+    return ok;
+}
 
 static inline int check_report(void)
 {

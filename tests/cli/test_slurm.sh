@@ -104,14 +104,15 @@ if ! node_up; then
 fi
 echo "cluster up: $(sinfo -h -o '%P %D node(s) %c cpus %t'), ports $ctl_port/$d_port"
 
-# job_state ID: COMPLETED, RUNNING, PENDING, SUSPENDED, FAILED, ...
+# job_state ID: COMPLETED, RUNNING, PENDING, SUSPENDED, FAILED, ... (one line
+# per task of an array)
 job_state() { scontrol -o show job "$1" 2> /dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p'; }
 wait_done() { # wait_done ID...: every job (every array task) ended; 0 when all COMPLETED
     local id st all i
     for i in $(seq 1800); do
         all=1
         for id in "$@"; do
-            st=$(scontrol -o show job "$id" 2> /dev/null | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p')
+            st=$(job_state "$id")
             [ -n "$st" ] || { all=0; continue; }
             while read -r s; do
                 case $s in
@@ -124,7 +125,7 @@ wait_done() { # wait_done ID...: every job (every array task) ended; 0 when all 
         sleep 0.2
     done
     for id in "$@"; do
-        scontrol -o show job "$id" | sed -n 's/.*JobState=\([A-Z_]*\).*/\1/p' | grep -qvx COMPLETED &&
+        job_state "$id" | grep -qvx COMPLETED &&
             return 1
     done
     return 0

@@ -13,8 +13,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-static int contains(const char *s, const char *needle) { return strstr(s, needle) != NULL; }
-
 /* A mesh from literal arrays (nv x 3 doubles, nf x 3 ints). */
 static void make(dtx_mesh *m, int32_t nv, const double *V, int32_t nf, const int32_t *F)
 {
@@ -94,7 +92,7 @@ static void test_unreferenced_and_components(void)
     CHECK_EQ_INT(rep.unreferenced, 2);
     CHECK_EQ_INT(rep.first_unreferenced, 4);
     CHECK_EQ_INT(dtx_mesh_report_notes(&rep, notes, sizeof notes), 1);
-    CHECK(contains(notes, "2 vertices in no triangle (vertex 4 first)"));
+    CHECK(check_contains(notes, "2 vertices in no triangle (vertex 4 first)"));
     dtx_mesh_free(&m);
 
     /* One vertex in no face: singular wording. */
@@ -102,7 +100,7 @@ static void test_unreferenced_and_components(void)
     inspect(&m, &rep);
     CHECK_EQ_INT(rep.components, 1);
     CHECK_EQ_INT(dtx_mesh_report_notes(&rep, notes, sizeof notes), 1);
-    CHECK(contains(notes, "1 vertex in no triangle (vertex 4 first)"));
+    CHECK(check_contains(notes, "1 vertex in no triangle (vertex 4 first)"));
     dtx_mesh_free(&m);
 }
 
@@ -131,7 +129,7 @@ static void test_degenerate(void)
     /* Edges 0-1, 1-2 and 2-0 are shared by three faces each. */
     CHECK_EQ_INT(rep.nonmanifold_edges, 3);
     CHECK_EQ_INT(dtx_mesh_report_notes(&rep, notes, sizeof notes), 2);
-    CHECK(contains(notes, "2 triangles of zero area or thinner than 0.0001 of the longest edge "
+    CHECK(check_contains(notes, "2 triangles of zero area or thinner than 0.0001 of the longest edge "
                           "(face 4 first"));
     dtx_mesh_free(&m);
 
@@ -175,13 +173,13 @@ static void test_duplicates_and_nonmanifold(void)
     CHECK_EQ_INT(rep.components, 1);
     CHECK_EQ_INT(rep.degenerate, 0);
     CHECK_EQ_INT(dtx_mesh_report_notes(&rep, notes, sizeof notes), 3);
-    CHECK(contains(notes, "2 vertices at exactly the position of another vertex (vertices 1 and "
+    CHECK(check_contains(notes, "2 vertices at exactly the position of another vertex (vertices 1 and "
                           "4 first)"));
-    CHECK(contains(notes, "3 non-manifold edges (edge 0-1 first, shared by 4 triangles)"));
-    CHECK(contains(notes, "1 triangle on the same three vertices as another (faces 0 and 5 "
+    CHECK(check_contains(notes, "3 non-manifold edges (edge 0-1 first, shared by 4 triangles)"));
+    CHECK(check_contains(notes, "1 triangle on the same three vertices as another (faces 0 and 5 "
                           "first)"));
     /* Notes are separated by "; " and truncated safely. */
-    CHECK(contains(notes, "); 3 non-manifold"));
+    CHECK(check_contains(notes, "); 3 non-manifold"));
     {
         char small[40];
         memset(small, 'x', sizeof small);
@@ -215,21 +213,21 @@ static void test_validate(void)
     make(&m, 4, tet_V, 4, tet_F);
     m.F[7] = 4;
     CHECK_EQ_INT(dtx_mesh_validate(&m, "t.h5: /meshes/x", &err), DTX_ERANGE);
-    CHECK(contains(err.msg, "t.h5: /meshes/x: face 2 (0-based) has vertex index 4 out of range "
+    CHECK(check_contains(err.msg, "t.h5: /meshes/x: face 2 (0-based) has vertex index 4 out of range "
                             "[0, 4)"));
     m.F[7] = 3;
     m.F[4] = 0;
     CHECK_EQ_INT(dtx_mesh_validate(&m, "x", &err), DTX_EMESH);
-    CHECK(contains(err.msg, "x: face 1 (0-based) repeats a vertex (0 0 3)"));
+    CHECK(check_contains(err.msg, "x: face 1 (0-based) repeats a vertex (0 0 3)"));
     m.F[4] = 1;
     m.V[5] = NAN;
     CHECK_EQ_INT(dtx_mesh_validate(&m, "x", &err), DTX_ENONFINITE);
-    CHECK(contains(err.msg, "x: vertex 1 (0-based) has a non-finite coordinate"));
+    CHECK(check_contains(err.msg, "x: vertex 1 (0-based) has a non-finite coordinate"));
     m.V[5] = 0;
     CHECK_OK(dtx_mesh_validate(&m, "x", &err), &err);
     m.nf = 0;
     CHECK_EQ_INT(dtx_mesh_validate(&m, "x", &err), DTX_EMESH);
-    CHECK(contains(err.msg, "x: mesh has no faces"));
+    CHECK(check_contains(err.msg, "x: mesh has no faces"));
     m.nf = 4;
     dtx_mesh_free(&m);
 }
@@ -256,23 +254,23 @@ static void test_markers(void)
 
     /* Out of range, naming the marker, its label and the base question. */
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 3, "mk", &err), DTX_ERANGE);
-    CHECK(contains(err.msg, "mk: marker 1: target vertex 3 out of range [0, 3) (0-based; is the "
+    CHECK(check_contains(err.msg, "mk: marker 1: target vertex 3 out of range [0, 3) (0-based; is the "
                             "index base right?)"));
     mk.src[2] = 5;
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 4, "mk", &err), DTX_ERANGE);
-    CHECK(contains(err.msg, "mk: marker 2 (\"tail\"): source vertex 5 out of range [0, 5)"));
+    CHECK(check_contains(err.msg, "mk: marker 2 (\"tail\"): source vertex 5 out of range [0, 5)"));
     mk.src[2] = -1;
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 4, "mk", &err), DTX_ERANGE);
 
     /* A vertex used twice: both markers named. */
     mk.src[2] = 0;
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 4, "mk", &err), DTX_EINVAL);
-    CHECK(contains(err.msg, "mk: source vertex 0 is used by two markers, 0 (\"nose\") and 2 "
+    CHECK(check_contains(err.msg, "mk: source vertex 0 is used by two markers, 0 (\"nose\") and 2 "
                             "(\"tail\")"));
     mk.src[2] = 3;
     mk.tgt[1] = 1;
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 4, "mk", &err), DTX_EINVAL);
-    CHECK(contains(err.msg, "mk: target vertex 1 is used by two markers, 0 (\"nose\") and 1 "
+    CHECK(check_contains(err.msg, "mk: target vertex 1 is used by two markers, 0 (\"nose\") and 1 "
                             "(0-based"));
     mk.tgt[1] = 3;
 
@@ -282,14 +280,14 @@ static void test_markers(void)
     CHECK_OK(dtx_markers_check_referenced(&mk, &src, "mk", &err), &err);
     mk.src[1] = 4;
     CHECK_EQ_INT(dtx_markers_check_referenced(&mk, &src, "mk", &err), DTX_EINVAL);
-    CHECK(contains(err.msg, "mk: marker 1: source vertex 4 is in no triangle of the source mesh"));
+    CHECK(check_contains(err.msg, "mk: marker 1: source vertex 4 is in no triangle of the source mesh"));
     dtx_mesh_free(&src);
     dtx_markers_free(&mk);
 
     /* No markers at all. */
     CHECK_OK(dtx_markers_alloc(&mk, 0, &err), &err);
     CHECK_EQ_INT(dtx_markers_validate(&mk, 5, 4, "mk", &err), DTX_EINVAL);
-    CHECK(contains(err.msg, "mk: no markers"));
+    CHECK(check_contains(err.msg, "mk: no markers"));
     dtx_markers_free(&mk);
 }
 

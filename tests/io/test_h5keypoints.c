@@ -5,6 +5,7 @@
  * groups (missing members, mismatched lengths, negative vertices, parallel
  * files refused by the writer's argument checks). */
 #include "check.h"
+#include "h5check.h"
 #include "h5layout.h"
 
 #include <math.h>
@@ -12,22 +13,6 @@
 #include <string.h>
 
 #define SCRATCH DTX_TEST_SCRATCH "/"
-
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in \"%s\"\n", sub, s ? s : "(null)");
-    return ok;
-}
-
-static hid_t new_file(const char *path)
-{
-    hid_t f = H5I_INVALID_HID;
-    dtx_error e;
-    CHECK_OK(dtx_h5_create(path, MPI_COMM_NULL, &f, &e), &e);
-    return f;
-}
 
 /* A tetrahedron as the source mesh. */
 static void write_tet(hid_t f)
@@ -69,7 +54,7 @@ static void validate(const char *path, int want_ok, const char *want)
         CHECK_OK(st, &e);
     } else {
         CHECK_EQ_INT(st, DTX_EFORMAT);
-        CHECK(contains(report, want));
+        CHECK(check_contains(report, want));
     }
     if ((want_ok && st != DTX_OK) || (!want_ok && st == DTX_OK))
         fprintf(stderr, "%s", report ? report : "(no report)\n");
@@ -83,7 +68,7 @@ static void test_round_trip(void)
     char l0[] = "left ear", l1[] = "", l2[] = "tail", *label[3] = {l0, l1, l2};
     dtx_h5_keypoints kp, r;
     dtx_error e;
-    hid_t f = new_file(SCRATCH "kp.h5");
+    hid_t f = h5check_new_file(SCRATCH "kp.h5");
     write_tet(f);
     fill(&kp, vertex, pos, label, error);
     CHECK_OK(dtx_h5_write_keypoints(f, "/keypoints/tet", &kp, &e), &e);
@@ -118,12 +103,12 @@ static void test_round_trip(void)
 
     /* Not over an existing group; not empty. */
     CHECK_EQ_INT(dtx_h5_write_keypoints(f, "/keypoints/tet", &kp, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "/keypoints/tet: already exists"));
+    CHECK(check_contains(e.msg, "/keypoints/tet: already exists"));
     kp.n = 0;
     CHECK_EQ_INT(dtx_h5_write_keypoints(f, "/keypoints/none", &kp, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "at least one point"));
+    CHECK(check_contains(e.msg, "at least one point"));
     CHECK_EQ_INT(dtx_h5_read_keypoints(f, "/keypoints/missing", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/keypoints/missing: missing"));
+    CHECK(check_contains(e.msg, "/keypoints/missing: missing"));
     CHECK(r.vertex == NULL);
     dtx_h5_close(&f, NULL);
     validate(SCRATCH "kp.h5", 1, NULL);
@@ -136,7 +121,7 @@ static void test_bad(void)
     double pos[9] = {0, 0, 1, 0, 0, 0, 0, 1, 0}, error[4] = {0.2, 0.1, 0.05, 0.04};
     dtx_h5_keypoints kp, r;
     dtx_error e;
-    hid_t f = new_file(SCRATCH "bad.h5");
+    hid_t f = h5check_new_file(SCRATCH "bad.h5");
     write_tet(f);
     fill(&kp, vertex, pos, NULL, error);
     /* Vertex 9 of a 4-vertex source: readable, the validator objects. */
@@ -144,27 +129,27 @@ static void test_bad(void)
     dtx_h5_close(&f, NULL);
     validate(SCRATCH "bad.h5", 0, "/keypoints/range/vertex");
 
-    f = new_file(SCRATCH "bad2.h5");
+    f = h5check_new_file(SCRATCH "bad2.h5");
     write_tet(f);
     vertex[2] = -1;
     CHECK_OK(dtx_h5_write_keypoints(f, "/keypoints/neg", &kp, &e), &e);
     CHECK_EQ_INT(dtx_h5_read_keypoints(f, "/keypoints/neg", &r, &e), DTX_ERANGE);
-    CHECK(contains(e.msg, "/keypoints/neg/vertex: entry 2 is -1"));
+    CHECK(check_contains(e.msg, "/keypoints/neg/vertex: entry 2 is -1"));
     vertex[2] = 2;
     CHECK_OK(dtx_h5_write_keypoints(f, "/keypoints/nopos", &kp, &e), &e);
     CHECK_OK(dtx_h5_remove(f, "/keypoints/nopos/position", &e), &e);
     CHECK_EQ_INT(dtx_h5_read_keypoints(f, "/keypoints/nopos", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/keypoints/nopos/position: missing"));
+    CHECK(check_contains(e.msg, "/keypoints/nopos/position: missing"));
     /* A non-finite error value, and eps stored as a string. */
     error[1] = NAN;
     CHECK_OK(dtx_h5_write_keypoints(f, "/keypoints/nan", &kp, &e), &e);
     CHECK_EQ_INT(dtx_h5_read_keypoints(f, "/keypoints/nan", &r, &e), DTX_ENONFINITE);
-    CHECK(contains(e.msg, "/keypoints/nan/error: value 1 is not finite"));
+    CHECK(check_contains(e.msg, "/keypoints/nan/error: value 1 is not finite"));
     error[1] = 0.1;
     CHECK_OK(dtx_h5_write_keypoints(f, "/keypoints/streps", &kp, &e), &e);
     CHECK_OK(dtx_h5_write_attr_str(f, "/keypoints/streps", "eps", "0.03", &e), &e);
     CHECK_EQ_INT(dtx_h5_read_keypoints(f, "/keypoints/streps", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "attribute eps: expected a float"));
+    CHECK(check_contains(e.msg, "attribute eps: expected a float"));
     dtx_h5_close(&f, NULL);
     validate(SCRATCH "bad2.h5", 0, "attribute eps: expected a single floating-point value");
 }

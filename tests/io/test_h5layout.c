@@ -1,6 +1,7 @@
 /* test_h5layout.c: the dtx HDF5 layout, serial: round trips of every
  * object, storage settings, and rejection of malformed files. */
 #include "check.h"
+#include "h5check.h"
 #include "h5layout.h"
 
 #include <float.h>
@@ -9,14 +10,6 @@
 #include <string.h>
 
 #define SCRATCH DTX_TEST_SCRATCH "/"
-
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in \"%s\"\n", sub, s ? s : "(null)");
-    return ok;
-}
 
 /* A tetrahedron: 4 vertices, 4 faces. */
 static void make_tet(dtx_mesh *m, double scale)
@@ -81,14 +74,6 @@ static void run(void (*test)(void), const char *name)
     }
 }
 
-static hid_t new_file(const char *name)
-{
-    hid_t f = H5I_INVALID_HID;
-    dtx_error e;
-    CHECK_OK(dtx_h5_create(name, MPI_COMM_NULL, &f, &e), &e);
-    return f;
-}
-
 /* ------------------------------------------------------------- hashing */
 
 static void test_hash(void)
@@ -130,7 +115,7 @@ static void test_paths(void)
 {
     char tmp[DTX_H5_PATH_MAX];
     dtx_error e;
-    hid_t f = new_file(SCRATCH "paths.h5"), g;
+    hid_t f = h5check_new_file(SCRATCH "paths.h5"), g;
     CHECK_OK(dtx_h5_tmp_path("/meshes/lion", tmp, sizeof tmp, &e), &e);
     CHECK(strcmp(tmp, "/meshes/.dtx-tmp-lion") == 0);
     CHECK_OK(dtx_h5_tmp_path("/x", tmp, sizeof tmp, &e), &e);
@@ -157,8 +142,8 @@ static void test_paths(void)
     CHECK_OK(dtx_h5_write_attr_int(f, "/things/.dtx-tmp-one", "marker", 22, &e), &e);
     CHECK_EQ_INT(dtx_h5_commit_group(f, "/things/.dtx-tmp-one", "/things/one", 0, &e),
                  DTX_EINVAL);
-    CHECK(contains(e.msg, "already exists"));
-    CHECK(contains(e.msg, "paths.h5: /things/one"));
+    CHECK(check_contains(e.msg, "already exists"));
+    CHECK(check_contains(e.msg, "paths.h5: /things/one"));
     CHECK_OK(dtx_h5_commit_group(f, "/things/.dtx-tmp-one", "/things/one", 1, &e), &e);
     CHECK_EQ_INT(dtx_h5_path_exists(f, "/things/.dtx-tmp-one"), 0);
     {
@@ -211,7 +196,7 @@ static void test_paths(void)
         CHECK_EQ_INT(n, 0);
         CHECK(names == NULL);
         CHECK_EQ_INT(dtx_h5_list_groups(f, "/list/data", &names, &n, &e), DTX_EFORMAT);
-        CHECK(contains(e.msg, "/list/data"));
+        CHECK(check_contains(e.msg, "/list/data"));
         CHECK_EQ_INT(dtx_h5_list_groups(f, "/absent", &names, &n, &e), DTX_EFORMAT);
     }
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -224,7 +209,7 @@ static void test_paths(void)
 static void test_attributes(void)
 {
     dtx_error e;
-    hid_t f = new_file(SCRATCH "attrs.h5");
+    hid_t f = h5check_new_file(SCRATCH "attrs.h5");
     char *s = NULL;
     int64_t v = 0;
     CHECK_OK(dtx_h5_read_attr_str(f, ".", "format", &s, &e), &e);
@@ -249,9 +234,9 @@ static void test_attributes(void)
     /* Wrong kind and missing. */
     CHECK_EQ_INT(dtx_h5_read_attr_str(f, ".", "x", &s, &e), DTX_EFORMAT);
     CHECK(s == NULL);
-    CHECK(contains(e.msg, "attribute x: expected a string, found integer"));
+    CHECK(check_contains(e.msg, "attribute x: expected a string, found integer"));
     CHECK_EQ_INT(dtx_h5_read_attr_int(f, ".", "nope", &v, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "attrs.h5: /: has no attribute nope"));
+    CHECK(check_contains(e.msg, "attrs.h5: /: has no attribute nope"));
 
     /* Fixed-length, space-padded strings and 64-bit integers (as other
      * writers, h5py with numpy types, produce them) are accepted. */
@@ -301,34 +286,34 @@ static void test_open(void)
     H5Fclose(raw);
     CHECK_EQ_INT(dtx_h5_open(SCRATCH "plain.h5", MPI_COMM_NULL, 0, &f, &e), DTX_EFORMAT);
     CHECK(f < 0);
-    CHECK(contains(e.msg, "plain.h5: not a dtx file"));
-    CHECK(contains(e.msg, "no attribute 'format'"));
+    CHECK(check_contains(e.msg, "plain.h5: not a dtx file"));
+    CHECK(check_contains(e.msg, "no attribute 'format'"));
 
     /* Another format name. */
-    f = new_file(SCRATCH "other.h5");
+    f = h5check_new_file(SCRATCH "other.h5");
     CHECK_OK(dtx_h5_write_attr_str(f, ".", "format", "mdx", &e), &e);
     dtx_h5_close(&f, &e);
     CHECK_EQ_INT(dtx_h5_open(SCRATCH "other.h5", MPI_COMM_NULL, 0, &f, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "format is \"mdx\", expected \"dtx\""));
+    CHECK(check_contains(e.msg, "format is \"mdx\", expected \"dtx\""));
 
     /* A future version. */
-    f = new_file(SCRATCH "v2.h5");
+    f = h5check_new_file(SCRATCH "v2.h5");
     CHECK_OK(dtx_h5_write_attr_int(f, ".", "format_version", 2, &e), &e);
     dtx_h5_close(&f, &e);
     CHECK_EQ_INT(dtx_h5_open(SCRATCH "v2.h5", MPI_COMM_NULL, 0, &f, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "v2.h5: format_version is 2, but this dtx reads version 1 only"));
+    CHECK(check_contains(e.msg, "v2.h5: format_version is 2, but this dtx reads version 1 only"));
 
     /* Not HDF5 at all, and missing. */
     write_text(SCRATCH "text.h5", "this is not HDF5\n");
     CHECK_EQ_INT(dtx_h5_open(SCRATCH "text.h5", MPI_COMM_NULL, 0, &f, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "text.h5: not an HDF5 file"));
+    CHECK(check_contains(e.msg, "text.h5: not an HDF5 file"));
     CHECK_EQ_INT(dtx_h5_open(SCRATCH "missing.h5", MPI_COMM_NULL, 0, &f, &e), DTX_EIO);
-    CHECK(contains(e.msg, "missing.h5: cannot open: No such file or directory"));
+    CHECK(check_contains(e.msg, "missing.h5: cannot open: No such file or directory"));
     CHECK_EQ_INT(dtx_h5_create(SCRATCH "no/such/dir/x.h5", MPI_COMM_NULL, &f, &e), DTX_EIO);
-    CHECK(contains(e.msg, "x.h5: cannot create the file"));
+    CHECK(check_contains(e.msg, "x.h5: cannot create the file"));
 
     /* A good file opens read-only and read-write. */
-    f = new_file(SCRATCH "good.h5");
+    f = h5check_new_file(SCRATCH "good.h5");
     dtx_h5_close(&f, &e);
     CHECK_OK(dtx_h5_open(SCRATCH "good.h5", MPI_COMM_NULL, 0, &f, &e), &e);
     CHECK_EQ_INT(dtx_h5_is_parallel(f), 0);
@@ -343,7 +328,7 @@ static void test_mesh_roundtrip(void)
 {
     dtx_error e;
     dtx_mesh m, r;
-    hid_t f = new_file(SCRATCH "mesh.h5");
+    hid_t f = h5check_new_file(SCRATCH "mesh.h5");
     char *s = NULL, hex[17];
     int64_t v;
     int32_t nv = 0, nf = 0;
@@ -384,7 +369,7 @@ static void test_mesh_roundtrip(void)
     }
     /* No overwriting; a stale temporary group is cleared. */
     CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/tet", &m, "x", &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "mesh.h5: /meshes/tet: already exists"));
+    CHECK(check_contains(e.msg, "mesh.h5: /meshes/tet: already exists"));
     CHECK_OK(dtx_h5_create_groups(f, "/meshes/.dtx-tmp-tet2", &e), &e);
     CHECK_OK(dtx_h5_write_mesh(f, "/meshes/tet2", &m, NULL, &e), &e);
     CHECK_EQ_INT(dtx_h5_path_exists(f, "/meshes/.dtx-tmp-tet2"), 0);
@@ -393,7 +378,7 @@ static void test_mesh_roundtrip(void)
     free(s);
     /* Missing group. */
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/none", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "mesh.h5: /meshes/none: missing"));
+    CHECK(check_contains(e.msg, "mesh.h5: /meshes/none: missing"));
     CHECK(r.V == NULL && r.nv == 0);
     dtx_mesh_free(&m);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -427,7 +412,7 @@ static void test_mesh_rejects(void)
 {
     dtx_error e;
     dtx_mesh m, r;
-    hid_t f = new_file(SCRATCH "badmesh.h5");
+    hid_t f = h5check_new_file(SCRATCH "badmesh.h5");
     double V[12];
     int32_t F[12], Vi[12];
     hsize_t d43[2] = {4, 3}, d44[2] = {4, 4}, d12[1] = {12};
@@ -441,31 +426,31 @@ static void test_mesh_rejects(void)
     raw_dset(f, "/meshes/intv/vertices", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, Vi, 0);
     raw_dset(f, "/meshes/intv/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/intv", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "badmesh.h5: /meshes/intv/vertices: expected float values, found "
+    CHECK(check_contains(e.msg, "badmesh.h5: /meshes/intv/vertices: expected float values, found "
                           "integer"));
     /* Rank 1. */
     raw_dset(f, "/meshes/r1/vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 1, d12, V, 0);
     raw_dset(f, "/meshes/r1/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/r1", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/meshes/r1/vertices: expected 2 dimensions nv x 3, found 1"));
+    CHECK(check_contains(e.msg, "/meshes/r1/vertices: expected 2 dimensions nv x 3, found 1"));
     /* Four columns. */
     raw_dset(f, "/meshes/c4/vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, d44,
              (double[16]){0}, 0);
     raw_dset(f, "/meshes/c4/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/c4", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/meshes/c4/vertices: expected shape nv x 3, found 4 x 4"));
+    CHECK(check_contains(e.msg, "/meshes/c4/vertices: expected shape nv x 3, found 4 x 4"));
     /* Face index out of range. */
     F[7] = 4;
     raw_dset(f, "/meshes/oor/vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, d43, V, 0);
     raw_dset(f, "/meshes/oor/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/oor", &r, &e), DTX_ERANGE);
-    CHECK(contains(e.msg, "badmesh.h5: /meshes/oor: face 2 (0-based) has vertex index 4 out "
+    CHECK(check_contains(e.msg, "badmesh.h5: /meshes/oor: face 2 (0-based) has vertex index 4 out "
                           "of range [0, 4)"));
     F[7] = m.F[7];
     /* Missing faces. */
     raw_dset(f, "/meshes/nof/vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, d43, V, 0);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/nof", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/meshes/nof/faces: missing"));
+    CHECK(check_contains(e.msg, "/meshes/nof/faces: missing"));
     /* Absurd dims, no data: 2^40 x 3 must fail before allocating. */
     {
         hsize_t huge[2] = {(hsize_t)1 << 40, 3}, big[2] = {(hsize_t)1 << 28, 3};
@@ -473,13 +458,13 @@ static void test_mesh_rejects(void)
                  1);
         raw_dset(f, "/meshes/huge/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
         CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/huge", &r, &e), DTX_ERANGE);
-        CHECK(contains(e.msg, "/meshes/huge/vertices: dimension 0 is 1099511627776, more than "
+        CHECK(check_contains(e.msg, "/meshes/huge/vertices: dimension 0 is 1099511627776, more than "
                               "the 2147483647 dtx supports"));
         /* 2^28 x 3 doubles (6 GiB) fits int32 but was never written. */
         raw_dset(f, "/meshes/big/vertices", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE, 2, big, NULL, 1);
         raw_dset(f, "/meshes/big/faces", H5T_STD_I32LE, H5T_NATIVE_INT32, 2, d43, F, 0);
         CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/big", &r, &e), DTX_EFORMAT);
-        CHECK(contains(e.msg, "/meshes/big/vertices: shape 268435456 x 3 needs 6442450944 "
+        CHECK(check_contains(e.msg, "/meshes/big/vertices: shape 268435456 x 3 needs 6442450944 "
                               "bytes, but only 0 bytes are stored"));
         /* The same through a compressed dataset: within gzip's ratio? no. */
         {
@@ -506,24 +491,24 @@ static void test_mesh_rejects(void)
             CHECK(H5Lmove(f, "/meshes/big/gz", f, "/meshes/big/vertices", H5P_DEFAULT,
                           H5P_DEFAULT) >= 0);
             CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/big", &r, &e), DTX_EFORMAT);
-            CHECK(contains(e.msg, "compressed bytes are stored"));
+            CHECK(check_contains(e.msg, "compressed bytes are stored"));
         }
     }
     /* Redundant counts and the content hash must agree with the data. */
     CHECK_OK(dtx_h5_write_mesh(f, "/meshes/ok", &m, "ok.obj", &e), &e);
     CHECK_OK(dtx_h5_write_attr_int(f, "/meshes/ok", "nv", 5, &e), &e);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/ok", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/meshes/ok: attribute nv is 5, but vertices has 4"));
+    CHECK(check_contains(e.msg, "/meshes/ok: attribute nv is 5, but vertices has 4"));
     CHECK_OK(dtx_h5_write_attr_int(f, "/meshes/ok", "nv", 4, &e), &e);
     CHECK_OK(dtx_h5_write_attr_str(f, "/meshes/ok", "content_hash", "0123456789abcdef", &e),
              &e);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/ok", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "content_hash is \"0123456789abcdef\" but the data hashes to"));
+    CHECK(check_contains(e.msg, "content_hash is \"0123456789abcdef\" but the data hashes to"));
     /* A repeated vertex is caught by dtx_mesh_validate. */
     m.F[1] = m.F[0];
     CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/rep", &m, NULL, &e), DTX_OK);
     CHECK_EQ_INT(dtx_h5_read_mesh(f, "/meshes/rep", &r, &e), DTX_EMESH);
-    CHECK(contains(e.msg, "badmesh.h5: /meshes/rep: face 0 (0-based) repeats a vertex"));
+    CHECK(check_contains(e.msg, "badmesh.h5: /meshes/rep: face 0 (0-based) repeats a vertex"));
     CHECK(r.V == NULL);
     dtx_mesh_free(&m);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -571,7 +556,7 @@ static void test_sequences(void)
     dtx_error e;
     dtx_mesh m;
     dtx_h5_seq s, s2;
-    hid_t f = new_file(SCRATCH "seq.h5");
+    hid_t f = h5check_new_file(SCRATCH "seq.h5");
     double X[T * NV * 3], Y[T * NV * 3];
     const char *names[T];
     char namebuf[T][16], **rn = NULL, *str = NULL;
@@ -595,7 +580,7 @@ static void test_sequences(void)
     CHECK_OK(dtx_h5_seq_write(&s, 7, 13, X + 7 * NV * 3, 0, &e), &e);
     CHECK_OK(dtx_h5_seq_write(&s, 20, 0, NULL, 0, &e), &e);
     CHECK_EQ_INT(dtx_h5_seq_write(&s, 15, 6, X, 0, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "frames [15, 21) are outside the 20 frames"));
+    CHECK(check_contains(e.msg, "frames [15, 21) are outside the 20 frames"));
     CHECK_EQ_INT(dtx_h5_write_frame_names(&s, names, T - 1, &e), DTX_EINVAL);
     CHECK_OK(dtx_h5_write_frame_names(&s, names, T, &e), &e);
     CHECK_OK(dtx_h5_seq_commit(&s, &e), &e);
@@ -669,11 +654,11 @@ static void test_sequences(void)
     /* Bad arguments and a mismatched rest mesh. */
     CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/bad", "/meshes/tet", T, 5, 0, 0, 0, &s, &e),
                  DTX_EINVAL);
-    CHECK(contains(e.msg, "seq.h5: /sequences/bad: rest mesh /meshes/tet has 4 vertices, but "
+    CHECK(check_contains(e.msg, "seq.h5: /sequences/bad: rest mesh /meshes/tet has 4 vertices, but "
                           "the data has 5"));
     CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/bad", "/meshes/none", T, 4, 0, 0, 0, &s, &e),
                  DTX_EFORMAT);
-    CHECK(contains(e.msg, "seq.h5: /sequences/bad: rest mesh /meshes/none cannot be used: "
+    CHECK(check_contains(e.msg, "seq.h5: /sequences/bad: rest mesh /meshes/none cannot be used: "
                           "/meshes/none: missing (no such mesh group)"));
     CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/bad", "/meshes/tet", 0, 4, 0, 0, 0, &s, &e),
                  DTX_EINVAL);
@@ -685,10 +670,10 @@ static void test_sequences(void)
         raw_dset(f, "/sequences/flat/positions", H5T_IEEE_F32LE, H5T_NATIVE_DOUBLE, 2, d2, X,
                  0);
         CHECK_EQ_INT(dtx_h5_seq_open(f, "/sequences/flat", &s, &e), DTX_EFORMAT);
-        CHECK(contains(e.msg, "seq.h5: /sequences/flat/positions: expected 3 dimensions "
+        CHECK(check_contains(e.msg, "seq.h5: /sequences/flat/positions: expected 3 dimensions "
                               "T x nv x 3, found 2"));
         CHECK_EQ_INT(dtx_h5_seq_open(f, "/sequences/none", &s, &e), DTX_EFORMAT);
-        CHECK(contains(e.msg, "/sequences/none: missing"));
+        CHECK(check_contains(e.msg, "/sequences/none: missing"));
     }
     dtx_mesh_free(&m);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -700,7 +685,7 @@ static void test_markers(void)
 {
     dtx_error e;
     dtx_markers mk, r;
-    hid_t f = new_file(SCRATCH "markers.h5");
+    hid_t f = h5check_new_file(SCRATCH "markers.h5");
     char *s = NULL;
     int64_t v;
     CHECK_OK(dtx_markers_alloc(&mk, 3, &e), &e);
@@ -735,11 +720,11 @@ static void test_markers(void)
     CHECK_OK(dtx_h5_write_markers(f, "/markers/b1", &mk, NULL, NULL, &e), &e);
     CHECK_OK(dtx_h5_write_attr_int(f, "/markers/b1", "index_base", 1, &e), &e);
     CHECK_EQ_INT(dtx_h5_read_markers(f, "/markers/b1", &r, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "markers.h5: /markers/b1: index_base is 1"));
+    CHECK(check_contains(e.msg, "markers.h5: /markers/b1: index_base is 1"));
     mk.tgt[1] = -3;
     CHECK_OK(dtx_h5_write_markers(f, "/markers/neg", &mk, NULL, NULL, &e), &e);
     CHECK_EQ_INT(dtx_h5_read_markers(f, "/markers/neg", &r, &e), DTX_ERANGE);
-    CHECK(contains(e.msg, "/markers/neg/target_vertex: entry 1 is -3"));
+    CHECK(check_contains(e.msg, "/markers/neg/target_vertex: entry 1 is -3"));
     CHECK(r.src == NULL);
     {
         hsize_t d2[1] = {2};
@@ -749,7 +734,7 @@ static void test_markers(void)
         raw_dset(f, "/markers/short/target_vertex", H5T_STD_I32LE, H5T_NATIVE_INT32, 1, d2, two,
                  0);
         CHECK_EQ_INT(dtx_h5_read_markers(f, "/markers/short", &r, &e), DTX_EFORMAT);
-        CHECK(contains(e.msg, "/markers/short/target_vertex: has 2 entries, expected 3"));
+        CHECK(check_contains(e.msg, "/markers/short/target_vertex: has 2 entries, expected 3"));
     }
     dtx_markers_free(&mk);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -761,7 +746,7 @@ static void test_corr(void)
 {
     dtx_error e;
     dtx_h5_corr c;
-    hid_t f = new_file(SCRATCH "corr.h5");
+    hid_t f = h5check_new_file(SCRATCH "corr.h5");
     int32_t pairs[10] = {0, 1, 1, 1, 2, 0, 3, 3, 3, 2};
     double def[12];
     char *g = NULL;
@@ -799,15 +784,15 @@ static void test_corr(void)
 
     /* Range checks against the meshes' sizes. */
     CHECK_EQ_INT(dtx_h5_read_corr(f, "/correspondences/c1", 4, 3, 4, &c, &e), DTX_ERANGE);
-    CHECK(contains(e.msg, "corr.h5: /correspondences/c1/pairs: pair 3 (3, 3) is out of range"));
+    CHECK(check_contains(e.msg, "corr.h5: /correspondences/c1/pairs: pair 3 (3, 3) is out of range"));
     CHECK_EQ_INT(dtx_h5_read_corr(f, "/correspondences/c1", 5, -1, -1, &c, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "deformed_source: has 4 rows, but the source mesh has 5"));
+    CHECK(check_contains(e.msg, "deformed_source: has 4 rows, but the source mesh has 5"));
     CHECK_OK(dtx_h5_read_corr(f, "/correspondences/c1", -1, -1, -1, &c, &e), &e);
     dtx_h5_corr_free(&c);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
 
     /* A file without correspondences. */
-    f = new_file(SCRATCH "corr-none.h5");
+    f = h5check_new_file(SCRATCH "corr-none.h5");
     CHECK_OK(dtx_h5_find_corr_by_key(f, "x", &g, &e), &e);
     CHECK(g == NULL);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -821,7 +806,7 @@ static void test_results(void)
     dtx_error e;
     dtx_mesh m;
     dtx_h5_result r;
-    hid_t f = new_file(SCRATCH "result.h5");
+    hid_t f = h5check_new_file(SCRATCH "result.h5");
     double X[T * NV * 3], Y[T * NV * 3], res[T], rr[T];
     uint8_t done[T];
     int64_t v;
@@ -870,7 +855,7 @@ static void test_results(void)
     CHECK_EQ_INT(v, 0);
     /* Finishing with frames missing is refused. */
     CHECK_EQ_INT(dtx_h5_result_finish(&r, 0, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "result.h5: /results/.dtx-tmp-lion: cannot mark the result complete: "
+    CHECK(check_contains(e.msg, "result.h5: /results/.dtx-tmp-lion: cannot mark the result complete: "
                           "frame 8 (0-based) was not written"));
     dtx_h5_result_close(&r);
 
@@ -906,7 +891,7 @@ static void test_results(void)
         CHECK_OK(dtx_h5_result_write(&a, 0, 3, X, res, 0, &e), &e);
         CHECK_OK(dtx_h5_result_write(&b, 0, 2, X, res, 0, &e), &e);
         CHECK_EQ_INT(dtx_h5_results_finish(both, 2, 0, &e), DTX_EINVAL);
-        CHECK(contains(e.msg, "/results/many/.dtx-tmp-b: cannot mark the result complete: "
+        CHECK(check_contains(e.msg, "/results/many/.dtx-tmp-b: cannot mark the result complete: "
                               "frame 2 (0-based) was not written"));
         CHECK_EQ_INT(dtx_h5_path_exists(f, "/results/many/a"), 0);
         CHECK_OK(dtx_h5_read_attr_int(a.group, ".", "complete", &v, &e), &e);
@@ -957,7 +942,7 @@ static void test_results(void)
     check_dcpl(r.positions, T, NV, 1);
     CHECK_OK(dtx_h5_result_write(&r, 0, T, X, res, 0, &e), &e);
     CHECK_EQ_INT(dtx_h5_result_finish(&r, 0, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "/results/lion: already exists"));
+    CHECK(check_contains(e.msg, "/results/lion: already exists"));
     CHECK_OK(dtx_h5_result_finish(&r, 1, &e), &e);
     dtx_h5_result_close(&r);
     CHECK_OK(dtx_h5_result_open(f, "/results/lion", 0, &r, &e), &e);
@@ -970,11 +955,11 @@ static void test_results(void)
     prov.target_mesh = "/meshes/none";
     CHECK_EQ_INT(dtx_h5_result_create(f, "/results/x", &prov, T, NV, 0, 0, 0, &r, &e),
                  DTX_EFORMAT);
-    CHECK(contains(e.msg, "result.h5: /results/x: target mesh /meshes/none cannot be used"));
+    CHECK(check_contains(e.msg, "result.h5: /results/x: target mesh /meshes/none cannot be used"));
     prov.target_mesh = "/meshes/lion";
     CHECK_EQ_INT(dtx_h5_result_create(f, "/results/x", &prov, T, NV + 1, 0, 0, 0, &r, &e),
                  DTX_EINVAL);
-    CHECK(contains(e.msg, "target mesh /meshes/lion has 4 vertices, but the data has 5"));
+    CHECK(check_contains(e.msg, "target mesh /meshes/lion has 4 vertices, but the data has 5"));
     CHECK_EQ_INT(dtx_h5_path_exists(f, "/results/.dtx-tmp-x"), 0);
     dtx_mesh_free(&m);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
@@ -1000,14 +985,14 @@ static void test_names(void)
     char longname[DTX_H5_NAME_MAX + 2];
     dtx_error e;
     dtx_mesh m;
-    hid_t f = new_file(SCRATCH "names.h5");
+    hid_t f = h5check_new_file(SCRATCH "names.h5");
     dtx_h5_seq s;
     for (size_t i = 0; i < sizeof good / sizeof *good; i++)
         CHECK_OK(dtx_h5_check_name(good[i], &e), &e);
     for (size_t i = 0; i < sizeof bad / sizeof *bad; i++) {
         CHECK_EQ_INT(dtx_h5_check_name(bad[i].name, &e), DTX_EINVAL);
-        CHECK(contains(e.msg, "cannot name an HDF5 object"));
-        CHECK(contains(e.msg, bad[i].why));
+        CHECK(check_contains(e.msg, "cannot name an HDF5 object"));
+        CHECK(check_contains(e.msg, bad[i].why));
     }
     CHECK(strchr(e.msg, 0x7f) == NULL); /* shown as '?' */
     memset(longname, 'n', DTX_H5_NAME_MAX);
@@ -1016,15 +1001,15 @@ static void test_names(void)
     longname[DTX_H5_NAME_MAX] = 'n';
     longname[DTX_H5_NAME_MAX + 1] = '\0';
     CHECK_EQ_INT(dtx_h5_check_name(longname, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "256 bytes long, more than 255"));
+    CHECK(check_contains(e.msg, "256 bytes long, more than 255"));
 
     /* The writers: refused before anything is created. */
     make_tet(&m, 1.0);
     CHECK_OK(dtx_h5_write_mesh(f, "/meshes/tet", &m, "tet.obj", &e), &e);
     CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/..", &m, NULL, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "names.h5: /meshes/..: \"..\" cannot name an HDF5 object"));
+    CHECK(check_contains(e.msg, "names.h5: /meshes/..: \"..\" cannot name an HDF5 object"));
     CHECK_EQ_INT(dtx_h5_write_mesh(f, "/meshes/.dtx-tmp-x", &m, NULL, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "reserved"));
+    CHECK(check_contains(e.msg, "reserved"));
     CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/.", "/meshes/tet", 3, 4, 0, 0, 0, &s, &e),
                  DTX_EINVAL);
     dtx_h5_seq_close(&s);

@@ -15,14 +15,6 @@
 
 #define SCRATCH DTX_TEST_SCRATCH "/"
 
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in:\n%s\n", sub, s ? s : "(null)");
-    return ok;
-}
-
 /* A quad split in two triangles, with a UV seam (4 vertices, 5 UVs: the
  * corner of face 1 at vertex 0 uses its own UV), a normal per vertex,
  * two materials and RGBA colours. */
@@ -92,10 +84,10 @@ static void expect_bad(const char *path, const char *what)
     dtx_error e;
     char *report = NULL;
     CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, path));
-    CHECK(contains(e.msg, "/meshes/quad"));
-    CHECK(contains(e.msg, what));
-    CHECK(contains(report, "problem"));
+    CHECK(check_contains(e.msg, path));
+    CHECK(check_contains(e.msg, "/meshes/quad"));
+    CHECK(check_contains(e.msg, what));
+    CHECK(check_contains(report, "problem"));
     free(report);
 }
 
@@ -108,7 +100,7 @@ static void test_good(void)
     hid_t f;
     make(path);
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
-    CHECK(contains(report, "/meshes/quad: ok\n"));
+    CHECK(check_contains(report, "/meshes/quad: ok\n"));
     free(report);
     f = reopen(path);
     CHECK_OK(dtx_h5_check_mesh_attrs(f, "/meshes/quad", &e), &e);

@@ -13,14 +13,6 @@
 
 enum { T = 11, NV = 4, CHUNK = 2 };
 
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in \"%s\"\n", sub, s ? s : "(null)");
-    return ok;
-}
-
 static double value(int64_t t, int i, int k)
 {
     return cos(0.3 * (double)t + 0.7 * i + 0.05 * k) + t;
@@ -84,10 +76,10 @@ int main(int argc, char **argv)
     CHECK_EQ_INT(dtx_h5_seq_create(f, "/sequences/walk", "/meshes/tet", T, NV, 0, CHUNK, 1, &s,
                                    &e),
                  DTX_EINVAL);
-    CHECK(contains(e.msg, "gzip cannot be used on a file opened in parallel"));
+    CHECK(check_contains(e.msg, "gzip cannot be used on a file opened in parallel"));
     dtx_markers_alloc(&mk, 1, NULL);
     CHECK_EQ_INT(dtx_h5_write_markers(f, "/markers/m", &mk, NULL, NULL, &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "markers cannot be written to a file opened in parallel"));
+    CHECK(check_contains(e.msg, "markers cannot be written to a file opened in parallel"));
     dtx_markers_free(&mk);
 
     CHECK_OK(dtx_h5_seq_create(f, "/sequences/walk", "/meshes/tet", T, NV, 1, CHUNK, 0, &s, &e),
@@ -103,7 +95,7 @@ int main(int argc, char **argv)
 
     CHECK_EQ_INT(dtx_h5_result_create(f, "/results/tet", &prov, T, NV, 0, CHUNK, 1, &r, &e),
                  DTX_EINVAL);
-    CHECK(contains(e.msg, "gzip cannot be used for a result written in parallel"));
+    CHECK(check_contains(e.msg, "gzip cannot be used for a result written in parallel"));
     CHECK_OK(dtx_h5_result_create(f, "/results/tet", &prov, T, NV, 0, CHUNK, 0, &r, &e), &e);
     /* First frame of each rank's range collectively, the rest
      * independently. */
@@ -158,7 +150,7 @@ int main(int argc, char **argv)
         }
         CHECK_OK(dtx_h5_close(&f, &e), &e);
         CHECK_OK(dtx_h5_validate(PATH, &report, &e), &e);
-        CHECK(contains(report, "/results/tet: ok"));
+        CHECK(check_contains(report, "/results/tet: ok"));
         free(report);
     }
     dtx_mesh_free(&m);

@@ -14,14 +14,6 @@
 
 enum { T = 6, NV = 4 };
 
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in:\n%s\n", sub, s ? s : "(null)");
-    return ok;
-}
-
 static char *slurp(const char *path, size_t *n)
 {
     FILE *fp = fopen(path, "rb");
@@ -207,10 +199,10 @@ static void expect_bad(const char *path, const char *problem, const char *line)
     dtx_error e;
     char *report = NULL;
     CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, path));
-    CHECK(contains(e.msg, problem));
-    CHECK(contains(report, line));
-    CHECK(contains(report, "problem"));
+    CHECK(check_contains(e.msg, path));
+    CHECK(check_contains(e.msg, problem));
+    CHECK(check_contains(report, line));
+    CHECK(check_contains(report, "problem"));
     free(report);
 }
 
@@ -223,16 +215,16 @@ static void test_good(void)
     char *report = NULL;
     make_good(path);
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
-    CHECK(contains(report, "/: ok\n"));
-    CHECK(contains(report, "/meshes/cat: ok\n"));
-    CHECK(contains(report, "/meshes/lion: ok\n"));
-    CHECK(contains(report, "/sequences/walk: ok\n"));
-    CHECK(contains(report, "/markers/cat-lion: ok\n"));
-    CHECK(contains(report, "/correspondences/c: ok\n"));
-    CHECK(contains(report, "/results/lion: ok\n"));
-    CHECK(contains(report, "/results/.dtx-tmp-lion2: note: temporary group"));
-    CHECK(contains(report, "/results/by-target/walk: ok\n"));
-    CHECK(contains(report, "valid dtx layout v1 (7 groups checked; 2 results, 12 of 12 frames "
+    CHECK(check_contains(report, "/: ok\n"));
+    CHECK(check_contains(report, "/meshes/cat: ok\n"));
+    CHECK(check_contains(report, "/meshes/lion: ok\n"));
+    CHECK(check_contains(report, "/sequences/walk: ok\n"));
+    CHECK(check_contains(report, "/markers/cat-lion: ok\n"));
+    CHECK(check_contains(report, "/correspondences/c: ok\n"));
+    CHECK(check_contains(report, "/results/lion: ok\n"));
+    CHECK(check_contains(report, "/results/.dtx-tmp-lion2: note: temporary group"));
+    CHECK(check_contains(report, "/results/by-target/walk: ok\n"));
+    CHECK(check_contains(report, "valid dtx layout v1 (7 groups checked; 2 results, 12 of 12 frames "
                            "checked (finite); 1 sequence, 6 of 6 frames checked (finite))"));
     free(report);
 
@@ -243,7 +235,7 @@ static void test_good(void)
         done(f);
     }
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
-    CHECK(contains(report, "/extras: note: not part of the dtx layout"));
+    CHECK(check_contains(report, "/extras: note: not part of the dtx layout"));
     free(report);
 }
 
@@ -257,11 +249,11 @@ static void test_not_hdf5(void)
         fclose(fp);
     }
     CHECK_EQ_INT(dtx_h5_validate(SCRATCH "text.h5", &report, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "text.h5: not an HDF5 file"));
-    CHECK(contains(report, "not an HDF5 file"));
+    CHECK(check_contains(e.msg, "text.h5: not an HDF5 file"));
+    CHECK(check_contains(report, "not an HDF5 file"));
     free(report);
     CHECK_EQ_INT(dtx_h5_validate(SCRATCH "absent.h5", &report, &e), DTX_EIO);
-    CHECK(contains(e.msg, "absent.h5: cannot open"));
+    CHECK(check_contains(e.msg, "absent.h5: cannot open"));
     free(report);
 }
 
@@ -383,7 +375,7 @@ static void test_optional_deformed_source(void)
     CHECK(H5Ldelete(f, "/correspondences/c/deformed_source", H5P_DEFAULT) >= 0);
     done(f);
     CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_OK);
-    CHECK(report && contains(report, "/correspondences/c: ok"));
+    CHECK(report && check_contains(report, "/correspondences/c: ok"));
     free(report);
 }
 
@@ -547,8 +539,8 @@ static void test_nan_not_done(void)
     CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", zero, &e), &e);
     done(f);
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
-    CHECK(contains(report, "/results/lion: ok\n"));
-    CHECK(contains(report, "2 results, 11 of 12 frames checked (finite; 1 not done)"));
+    CHECK(check_contains(report, "/results/lion: ok\n"));
+    CHECK(check_contains(report, "2 results, 11 of 12 frames checked (finite; 1 not done)"));
     free(report);
 }
 
@@ -616,9 +608,9 @@ static void test_blocks(void)
     put_coord(f, "/results/big/positions", 7, BNV - 1, 2, NAN);
     CHECK_OK(dtx_h5_close(&f, &e), &e);
     CHECK_EQ_INT(dtx_h5_validate(path, &report, &e), DTX_EFORMAT);
-    CHECK(contains(report, "/results/big/positions: 1 of 5 frames marked done holds non-finite "
+    CHECK(check_contains(report, "/results/big/positions: 1 of 5 frames marked done holds non-finite "
                            "coordinates; first frame 7 (0-based), vertex 299999 (nan)"));
-    CHECK(contains(report, "1 result, 5 of 8 frames checked (finite; 3 not done)"));
+    CHECK(check_contains(report, "1 result, 5 of 8 frames checked (finite; 3 not done)"));
     free(report);
     free(Y);
     dtx_mesh_free(&m);

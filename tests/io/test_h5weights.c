@@ -6,6 +6,7 @@
  * that disagree, a vertex count other than the caller's, handles out of
  * range, weights outside [0, 1] or NaN) with the member named. */
 #include "check.h"
+#include "h5check.h"
 #include "h5layout.h"
 
 #include <math.h>
@@ -14,22 +15,6 @@
 #include <string.h>
 
 #define SCRATCH DTX_TEST_SCRATCH "/"
-
-static int contains(const char *s, const char *sub)
-{
-    int ok = s && strstr(s, sub) != NULL;
-    if (!ok)
-        fprintf(stderr, "  expected \"%s\" in \"%s\"\n", sub, s ? s : "(null)");
-    return ok;
-}
-
-static hid_t new_file(const char *path)
-{
-    hid_t f = H5I_INVALID_HID;
-    dtx_error e;
-    CHECK_OK(dtx_h5_create(path, MPI_COMM_NULL, &f, &e), &e);
-    return f;
-}
 
 /* Weights of 2 handles (vertices 3 and 0) on 4 vertices, rows summing to 1. */
 static const int32_t H[2] = {3, 0};
@@ -40,7 +25,7 @@ static void test_round_trip(void)
     dtx_h5_weights w;
     dtx_error e;
     char *g = NULL;
-    hid_t f = new_file(SCRATCH "w.h5");
+    hid_t f = h5check_new_file(SCRATCH "w.h5");
     CHECK_OK(dtx_h5_write_weights(f, "/weights/a", H, 2, W, 4, "00000000000000aa", "x.h5:/m", &e),
              &e);
     CHECK_OK(dtx_h5_write_weights(f, "/weights/b", H, 2, W, 4, "00000000000000bb", "x.h5:/m", &e),
@@ -69,15 +54,15 @@ static void test_round_trip(void)
 
     /* Not over an existing group; not empty. */
     CHECK_EQ_INT(dtx_h5_write_weights(f, "/weights/a", H, 2, W, 4, "k", "m", &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "/weights/a: already exists"));
+    CHECK(check_contains(e.msg, "/weights/a: already exists"));
     CHECK_EQ_INT(dtx_h5_write_weights(f, "/weights/z", H, 0, W, 4, "k", "m", &e), DTX_EINVAL);
-    CHECK(contains(e.msg, "0 handles"));
+    CHECK(check_contains(e.msg, "0 handles"));
     CHECK_EQ_INT(dtx_h5_read_weights(f, "/weights/missing", 4, &w, &e), DTX_EFORMAT);
-    CHECK(contains(e.msg, "/weights/missing: missing"));
+    CHECK(check_contains(e.msg, "/weights/missing: missing"));
     dtx_h5_close(&f, NULL);
 
     /* A file without /weights: no match, no error. */
-    f = new_file(SCRATCH "none.h5");
+    f = h5check_new_file(SCRATCH "none.h5");
     CHECK_OK(dtx_h5_find_weights_by_key(f, "00000000000000bb", &g, &e), &e);
     CHECK(g == NULL);
     dtx_h5_close(&f, NULL);
@@ -93,7 +78,7 @@ static void bad_read(hid_t f, const char *group, int32_t nv, dtx_status want, co
     dtx_h5_weights w;
     dtx_error e;
     CHECK_EQ_INT(dtx_h5_read_weights(f, group, nv, &w, &e), want);
-    CHECK(contains(e.msg, msg));
+    CHECK(check_contains(e.msg, msg));
     CHECK(w.weights == NULL && w.handles == NULL);
 }
 
@@ -103,7 +88,7 @@ static void test_bad(void)
     double v[8];
     dtx_error e;
     char *report = NULL;
-    hid_t f = new_file(SCRATCH "bad.h5");
+    hid_t f = h5check_new_file(SCRATCH "bad.h5");
     memcpy(v, W, sizeof v);
     CHECK_OK(dtx_h5_write_weights(f, "/weights/ok", h, 2, v, 4, "k", "m", &e), &e);
     bad_read(f, "/weights/ok", 5, DTX_EFORMAT, "/weights/ok/weights: is 4 x 2, expected 5 x 2");
@@ -137,7 +122,7 @@ static void test_bad(void)
     dtx_h5_close(&f, NULL);
     /* The validator reports the handle out of range. */
     CHECK_EQ_INT(dtx_h5_validate(SCRATCH "bad.h5", &report, &e), DTX_EFORMAT);
-    CHECK(contains(report, "/weights/range/handles"));
+    CHECK(check_contains(report, "/weights/range/handles"));
     free(report);
 }
 
