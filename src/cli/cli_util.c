@@ -1,14 +1,20 @@
 /*
  * cli_util.c: messages and option lookup shared by the `dtx` commands.
  */
+#define _XOPEN_SOURCE 700 /* nftw */
 #include "cli_util.h"
 #include "options.h"
 
 #include "h5layout.h"
 
+#include <dirent.h>
+#include <errno.h>
+#include <ftw.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 int dtx_cli_quiet_rank(void)
@@ -56,6 +62,63 @@ static void remove_session_base(void)
     session_base[0] = '\0';
 }
 
+static int remove_entry(const char *path, const struct stat *st, int flag, struct FTW *ftw)
+{
+    (void)st, (void)flag, (void)ftw;
+    remove(path);
+    return 0;
+}
+
+/* Removes the session directories under tmp that singletons of this host
+ * left when they were killed (kill -9 runs no exit handler): those named
+ * dtx-mpi-HOST-PID-* with this HOST, owned by this user, whose PID is no
+ * longer running.  A directory of another host (a shared TMPDIR) or of a
+ * live process is left alone. */
+static void sweep_stale_sessions(const char *tmp, const char *host)
+{
+    char prefix[128], path[4096];
+    struct dirent *e;
+    DIR *d = opendir(tmp);
+    size_t n = (size_t)snprintf(prefix, sizeof prefix, "dtx-mpi-%s-", host);
+    if (!d)
+        return;
+    while ((e = readdir(d)) != NULL) {
+        struct stat st;
+        char *end;
+        long pid;
+        if (strncmp(e->d_name, prefix, n) != 0)
+            continue;
+        errno = 0;
+        pid = strtol(e->d_name + n, &end, 10);
+        if (errno || pid <= 0 || *end != '-' || (pid_t)pid == getpid())
+            continue;
+        if (kill((pid_t)pid, 0) == 0 || errno != ESRCH)
+            continue;
+        if (snprintf(path, sizeof path, "%s/%s", tmp, e->d_name) >= (int)sizeof path)
+            continue;
+        if (lstat(path, &st) != 0 || !S_ISDIR(st.st_mode) || st.st_uid != getuid())
+            continue;
+        nftw(path, remove_entry, 16, FTW_DEPTH | FTW_PHYS);
+    }
+    closedir(d);
+}
+
+/* This host's name as it goes into a file name: letters, digits, '.' and
+ * '-' only, at most 63 characters. */
+static void host_tag(char *out, size_t n)
+{
+    char h[256] = "";
+    size_t k = 0;
+    gethostname(h, sizeof h - 1);
+    for (const char *c = h; *c && k + 1 < n && k < 63; c++)
+        if ((*c >= 'a' && *c <= 'z') || (*c >= 'A' && *c <= 'Z') || (*c >= '0' && *c <= '9') ||
+            *c == '.' || *c == '-')
+            out[k++] = *c;
+    if (k == 0 && n > 4)
+        k = (size_t)snprintf(out, n, "host");
+    out[k] = '\0';
+}
+
 void dtx_cli_mpi_init(int *argc, char ***argv)
 {
     int provided;
@@ -73,8 +136,12 @@ void dtx_cli_mpi_init(int *argc, char ***argv)
          * files (MPI-IO's shared-file-pointer segments) of the others. */
         if (!getenv("OMPI_MCA_orte_tmpdir_base")) {
             const char *tmp = getenv("TMPDIR");
-            snprintf(session_base, sizeof session_base, "%s/dtx-mpi-XXXXXX",
-                     tmp && *tmp ? tmp : "/tmp");
+            char host[64];
+            tmp = tmp && *tmp ? tmp : "/tmp";
+            host_tag(host, sizeof host);
+            sweep_stale_sessions(tmp, host);
+            snprintf(session_base, sizeof session_base, "%s/dtx-mpi-%s-%ld-XXXXXX", tmp, host,
+                     (long)getpid());
             if (mkdtemp(session_base)) {
                 setenv("OMPI_MCA_orte_tmpdir_base", session_base, 1);
                 atexit(remove_session_base);

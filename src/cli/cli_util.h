@@ -37,9 +37,10 @@ void dtx_cli_print_warning(void *ctx, const char *msg);
  * spawns or connects to other jobs, so it asks for an isolated singleton
  * instead (OMPI_MCA_ess_singleton_isolated=1, unless the user set it):
  * 0.1 s less at every start (0.8 s under the sanitizers) and one process
- * fewer.  Its session directory goes below a fresh $TMPDIR/dtx-mpi-XXXXXX
- * (unless OMPI_MCA_orte_tmpdir_base is set), removed at exit, so that
- * concurrent singletons never share one. */
+ * fewer.  Its session directory goes below a fresh
+ * $TMPDIR/dtx-mpi-HOST-PID-XXXXXX (unless OMPI_MCA_orte_tmpdir_base is set),
+ * removed at exit, so that concurrent singletons never share one; those
+ * that killed singletons of this host left are removed first. */
 void dtx_cli_mpi_init(int *argc, char ***argv);
 
 /* Ends a command run under MPI (MPI_Finalize) and returns its exit status:

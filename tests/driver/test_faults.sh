@@ -76,4 +76,26 @@ head -c 400 "$W/fsize.err"; echo
 OMP_NUM_THREADS=1 "$DTX" run --quiet --resume "$W/job.json"
 check "after the failure, --resume completes a valid output" "$DTX" validate "$W/out.h5"
 
+# A singleton killed with SIGKILL leaves its session directory
+# ($TMPDIR/dtx-mpi-HOST-PID-*); the next singleton start on the host removes
+# those whose PID is gone, and only those.
+T="$W/tmp"
+rm -rf "$T"
+mkdir -p "$T"
+host=$(uname -n | tr -cd 'A-Za-z0-9.-' | cut -c1-63)
+sleep 0 &
+dead=$!
+wait "$dead"
+mkdir -p "$T/dtx-mpi-$host-$dead-aaaaaa/ompi.vm.0/jf.0" "$T/dtx-mpi-$host-$$-bbbbbb" \
+    "$T/dtx-mpi-otherhost-$dead-cccccc" "$T/dtx-mpi-dddddd"
+echo x > "$T/dtx-mpi-$host-$dead-aaaaaa/ompi.vm.0/jf.0/segment"
+rm -f "$W/out.h5"
+TMPDIR="$T" OMP_NUM_THREADS=1 "$DTX" run --quiet "$W/job.json"
+check "stale session directory (dead PID, this host) removed" test ! -e "$T/dtx-mpi-$host-$dead-aaaaaa"
+check "session directory of a live PID kept" test -d "$T/dtx-mpi-$host-$$-bbbbbb"
+check "session directory of another host kept" test -d "$T/dtx-mpi-otherhost-$dead-cccccc"
+check "directory of another naming kept" test -d "$T/dtx-mpi-dddddd"
+check "the run's own session directory removed at exit (3 left, the 3 kept)" \
+    test "$(find "$T" -mindepth 1 -maxdepth 1 | wc -l)" -eq 3
+
 finish
