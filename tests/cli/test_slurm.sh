@@ -278,14 +278,26 @@ for _ in $(seq 600); do
 done
 echo "job $id had $stopped of $NFRAMES frames marked done when requeued"
 check "long job requeued mid-run (frames done in its partial)" test "$stopped" -gt 0
-# Slurm delays a requeued job's start by two minutes: start it now.
+# Slurm delays a requeued job's start by two minutes: start it sooner, but
+# only once the killed instance is gone and a new second has begun: slurmd
+# refuses to launch a job whose credential is not newer, in whole seconds,
+# than the one it revoked at the kill ("Job credential revoked"; seen in a
+# CI run that restarted it 0.3 s after the requeue, in the same second).
 scontrol requeue "$id"
-for _ in $(seq 100); do
-    [ "$(job_state "$id")" = PENDING ] && scontrol update JobId="$id" StartTime=now 2> /dev/null &&
+started=0
+for _ in $(seq 600); do
+    if [ "$(job_state "$id")" = PENDING ] && [ -z "$(job_pids "$id")" ]; then
+        sleep 1.1
+        scontrol update JobId="$id" StartTime=now 2> /dev/null && started=1
         break
+    fi
     sleep 0.1
 done
+check "requeued job $id pending, its killed instance gone, its start moved to now" \
+    test $started -eq 1
+f0=$fails
 check "requeued job $id completed" wait_done "$id"
+[ "$fails" -eq "$f0" ] || grep -h "JobId=$id" "$S"/log/slurmctld.log | tail -8 | sed 's/^/  | /' || true
 log=dtx-dtx-$id.out
 sed 's/^/  | /' "$log" || true
 check "requeue: Slurm's log shows the restart (restart 1)" grep -q "restart 1," "$log"
