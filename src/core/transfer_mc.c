@@ -68,29 +68,46 @@
  * - x_j|): a pair that keeps its length holds its ends only along d, and A
  * makes every motion of a boundary vertex across d (a piece sliding along
  * its neighbour) far stiffer than it is.  The Newton solver takes the same
- * first iterate, then steps x += alpha dx with H dx = -grad E / 2, where H
- * (half E's Hessian) is A less, per pair, w3 c_ij min(1, l_ij / |x_i - x_j|)
- * (I - d d^T) on the pair's difference (the same for E4's rows, with |L v|
- * and L x).  The gradient comes for free: grad E / 2 = A x - b(x), b(x) the
- * fixed-point right-hand side with the directions of x.  H dx = r is solved
- * by conjugate gradients preconditioned with A's factor, from dx = 0 (so
- * that the first direction is the fixed-point step), until the residual in
- * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or at a
- * direction of negative curvature (H is indefinite where pairs are
- * compressed).  alpha halves from 1 until E decreases; when no step does,
- * the fixed-point step is taken, which always lowers E.  A frame has
- * converged when the Newton step, an estimate of the distance to the
- * minimiser (the fixed-point step underestimates it in the sliding
- * directions by the ratio of true to held stiffness), moves no vertex by
- * more than tol x the target diagonal and the full step is taken.
- * max_iter and the frame's iteration count include the first solve.
- * Measured (core.multicomponent, cat -> lion targets): the lion with a
- * shirt converges in 4-9 Newton steps (26-73 back-substitutions) where
- * the fixed-point iteration needs up to 31; the pebble lion with the
- * paper's absolute lengths in 10-17 steps; the pebble lion with relative
- * lengths (cracks of near-zero rest length, whose tangential curvature
- * swings from negative to large within a fraction of the crack width)
- * converges linearly and stops at max_iter.
+ * first iterate, then steps on the model E(x + dx) ~ E(x) - 2 r.dx + dx.H dx,
+ * where r = -grad E / 2 = b(x) - A x comes for free (b(x) the fixed-point
+ * right-hand side with the directions of x) and H, half E's Hessian, is A
+ * less, per pair, w3 c_ij (l_ij / |x_i - x_j|) (I - d d^T) on the pair's
+ * difference (the same for E4's rows, with |L v| and L x).  H is
+ * indefinite where pairs are compressed (|x_i - x_j| < l_ij).  Each step
+ * minimises the model in a trust region, |dx|_A <= delta in A's norm, by
+ * Steihaug-Toint conjugate gradients preconditioned with A's factor from dx
+ * = 0 (the first direction is the fixed-point step): until the residual in
+ * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or to
+ * the boundary along a direction of negative curvature or one that would
+ * leave the region.  The step stands when E falls by more than MC_TR_ACCEPT
+ * of the model's decrease; delta shrinks to a quarter of the step when E
+ * fell by less than a quarter of it and doubles after a step to the
+ * boundary that E followed to 3/4; a rejected step is halved up to
+ * MC_TR_BACKTRACK times (energy evaluations only), keeping the first half
+ * that lowers E.
+ *
+ * Why a trust region (measured on the cat -> pebble lion, relative
+ * lengths, core.multicomponent): the pairs across its cracks are as short
+ * as the cracks are wide (0.4% of the diagonal), and a piece sliding by a
+ * fraction of that turns them, so a quadratic model of E holds only within
+ * a fraction of a crack width, while from the first iterate the pieces
+ * slide by several; and compressed pairs make H indefinite: the conjugate
+ * gradients of the line-search Newton solver this one replaces met
+ * negative curvature in most steps, stopped there, and its line search cut
+ * most steps by 4 to 64 (0 of 9 frames converged within 30 steps);
+ * in the trust region all 9 converge in 45-87 steps (about 700-1200
+ * back-substitutions), the last few quadratically, and the shirt in 5-12.
+ * Moving whole pieces by Newton steps in their translations between steps
+ * (E1, E2, E4 do not change) was tried and did not shorten that.
+ *
+ * A frame has converged when a Newton step inside the region (conjugate
+ * gradients to MC_CG_ETA), an estimate of the distance to the minimiser,
+ * moves no vertex by more than tol x the target diagonal.  Where E is
+ * flatter than quadratic (a piece moved off its neighbours' surface
+ * stretches their pairs only to second order, so E is quartic in it) the
+ * Newton step is a third of that distance or more.  max_iter (default
+ * DTX_MC_MAX_ITER_NEWTON) counts the first solve and the Newton steps,
+ * taken or not.
  *
  * Every frame is solved by one thread with its own workspace, in a fixed
  * order, so its result does not depend on the thread count or on how the
