@@ -87,7 +87,7 @@
  * that lowers E.
  *
  * Why a trust region (measured on the cat -> pebble lion, relative
- * lengths, core.multicomponent): the pairs across its cracks are as short
+ * lengths, with dtx_bench_mc): the pairs across its cracks are as short
  * as the cracks are wide (0.4% of the diagonal), and a piece sliding by a
  * fraction of that turns them, so a quadratic model of E holds only within
  * a fraction of a crack width, while from the first iterate the pieces
@@ -95,8 +95,9 @@
  * gradients of the line-search Newton solver this one replaces met
  * negative curvature in most steps, stopped there, and its line search cut
  * most steps by 4 to 64 (0 of 9 frames converged within 30 steps);
- * in the trust region all 9 converge in 45-87 steps (about 700-1200
- * back-substitutions), the last few quadratically, and the shirt in 5-12.
+ * in the trust region all 9 converge in 44-86 steps (about 700-1200
+ * back-substitutions), the last few quadratically, and the shirt within
+ * 11.
  * Moving whole pieces by Newton steps in their translations between steps
  * (E1, E2, E4 do not change) was tried and did not shorten that.
  *
@@ -1574,8 +1575,9 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
                 break;
             }
         } else {
-            /* Rejected: the next step has a quarter of the radius; first,
-             * the shorter steps along dx (energy evaluations only). */
+            /* Rejected: first the shorter steps along dx (energy
+             * evaluations only); the next radius is half the step taken
+             * (a quarter of this one's without one). */
             double alpha = 0.5;
             int lowered = 0;
             for (int ls = 0; ls < MC_TR_BACKTRACK && !lowered; ls++, alpha *= 0.5) {
