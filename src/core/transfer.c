@@ -28,8 +28,7 @@ const dtx_transfer_method *dtx_transfer_method_named(const char *name)
     return NULL;
 }
 
-const char *dtx_transfer_solver_name(const dtx_transfer_method *m,
-                                     const dtx_transfer_params *prm)
+const char *dtx_transfer_solver_name(const dtx_transfer_method *m, const dtx_transfer_params *prm)
 {
     return m->solver_of && prm ? m->solver_of(prm) : m->solver_name;
 }

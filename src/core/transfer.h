@@ -186,8 +186,7 @@ const dtx_transfer_method *dtx_transfer_method_named(const char *name);
 /* The iterative solve that method m runs with parameters prm, for
  * reports: m->solver_of(prm), or m->solver_name (NULL when m is not
  * iterative). */
-const char *dtx_transfer_solver_name(const dtx_transfer_method *m,
-                                     const dtx_transfer_params *prm);
+const char *dtx_transfer_solver_name(const dtx_transfer_method *m, const dtx_transfer_params *prm);
 
 /* For the methods' adapters: makes *buf hold at least n elements of size
  * bytes (*cap counts them), keeping it when it does.  DTX_ENOMEM. */

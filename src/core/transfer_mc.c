@@ -657,7 +657,7 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     p->npairs = npairs;
     p->anchor = anchor;
     p->npins = npins;
-    p->max_iter = prm->max_iter > 0 ? prm->max_iter
+    p->max_iter = prm->max_iter > 0                     ? prm->max_iter
                   : prm->solver == DTX_MC_SOLVER_NEWTON ? DTX_MC_MAX_ITER_NEWTON
                                                         : DTX_MC_MAX_ITER_FIXED_POINT;
     p->Fs = dtx_alloc((size_t)src->nf, 3 * sizeof *p->Fs, 0);

@@ -539,8 +539,7 @@ static void read_settings(const cJSON *obj, const setting_ref *refs, int n)
     }
 }
 
-const dtx_transfer_method *dtx_job_params_read(const char *params_json,
-                                               dtx_transfer_params *prm)
+const dtx_transfer_method *dtx_job_params_read(const char *params_json, dtx_transfer_params *prm)
 {
     cJSON *doc = params_json ? cJSON_Parse(params_json) : NULL;
     const cJSON *name = doc ? get(doc, "method") : NULL;

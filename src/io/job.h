@@ -181,8 +181,7 @@ char *dtx_job_params_json(const dtx_job *job);
  * format) and its settings from that text into *prm (the method's defaults
  * for any not given).  NULL, *prm untouched, when the text does not parse
  * or names no known method.  Thread-safe. */
-const dtx_transfer_method *dtx_job_params_read(const char *params_json,
-                                               dtx_transfer_params *prm);
+const dtx_transfer_method *dtx_job_params_read(const char *params_json, dtx_transfer_params *prm);
 
 /* Canonical parameter text of the correspondence the job's method builds
  * on (corr: its table's correspondence, transfer.h), for the correspondence

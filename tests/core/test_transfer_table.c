@@ -52,8 +52,8 @@ static void members(void)
         /* A run names the solver its parameters choose. */
         dtx_transfer_params prm;
         dtx_transfer_params_default(&prm, DTX_TRANSFER_MULTICOMPONENT);
-        CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_multicomponent, &prm),
-                     "Gauss-Newton") == 0);
+        CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_multicomponent, &prm), "Gauss-Newton") ==
+              0);
         prm.u.mc.solver = DTX_MC_SOLVER_NEWTON;
         CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_multicomponent, &prm), "Newton") == 0);
         dtx_transfer_params_default(&prm, DTX_TRANSFER_SPRINGS);
