@@ -21,6 +21,7 @@
 #include "cmd_render.h"
 #include "cmd_view.h"
 #include "h5layout.h"
+#include "job.h"
 #include "path_guard.h"
 #include "transfer.h"
 
@@ -493,14 +494,22 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
             goto done;
         }
-        char *method = NULL;
+        char *method = NULL, *params = NULL;
         const dtx_transfer_method *m;
+        const char *solver;
+        dtx_transfer_params prm;
         dtx_h5_read_attr_str(h, path, "method", &method, NULL);
-        /* A result of an unknown method with frame_stats: say "Newton". */
+        dtx_h5_read_attr_str(h, path, "parameters", &params, NULL);
+        /* The solver the result's parameters chose (the method's default one
+         * when they do not parse); a result of an unknown method with
+         * frame_stats: say "Newton". */
         m = dtx_transfer_method_named(method);
+        solver = m && m->solver_name ? m->solver_name : "Newton";
+        if (m && dtx_job_params_read(params, &prm) == m)
+            solver = dtx_transfer_solver_name(m, &prm);
         if ((st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err)) == DTX_OK)
-            write_frame_stats(f, fs, done, res.nframes,
-                              m && m->solver_name ? m->solver_name : "Newton");
+            write_frame_stats(f, fs, done, res.nframes, solver);
+        free(params);
         free(method);
         free(fs);
     }

@@ -270,9 +270,11 @@ typedef enum { DTX_MC_LENGTHS_RELATIVE = 0, DTX_MC_LENGTHS_DIAGONAL = 1 } dtx_mc
  *  FIXED_POINT: the fixed-point iteration on the factored matrix with
  *    Anderson acceleration; an iteration is one back-substitution.  The
  *    default.
- *  NEWTON: Newton steps on the full energy with a backtracking line search,
- *    each step solved by conjugate gradients preconditioned with the
- *    factored matrix (up to 40 back-substitutions a step). */
+ *  NEWTON: Newton steps on the full energy in a trust region, each solved
+ *    by conjugate gradients preconditioned with the factored matrix (up to
+ *    40 back-substitutions a step); converges where pieces slide against
+ *    each other, at several times the fixed-point iteration's cost a
+ *    frame. */
 typedef enum { DTX_MC_SOLVER_FIXED_POINT = 0, DTX_MC_SOLVER_NEWTON = 1 } dtx_mc_solver;
 
 typedef struct {
@@ -283,11 +285,18 @@ typedef struct {
     double w_laplacian; /* E4, Laplacian-coordinate lengths of orphan components [1] */
     double eps_factor;  /* proximity threshold: this x a component's longest edge [1.5] */
     int max_iter;       /* iterations (NEWTON: the first solve and the Newton steps)
-                           per frame at most [30] */
-    double tol;         /* stop when no vertex moves more than this x the
-                           target's bounding-box diagonal [1e-6] */
+                           per frame at most; 0: the solver's default
+                           (DTX_MC_MAX_ITER_FIXED_POINT or _NEWTON) [0] */
+    double tol;         /* stop when the last step (NEWTON: the Newton step, an
+                           estimate of the distance to the minimiser) moves no
+                           vertex more than this x the target's bounding-box
+                           diagonal [1e-6] */
     dtx_mc_solver solver; /* [FIXED_POINT] */
 } dtx_mc_params;
+
+/* max_iter's defaults. */
+#define DTX_MC_MAX_ITER_FIXED_POINT 30
+#define DTX_MC_MAX_ITER_NEWTON 100
 
 /* The paper's values, except E3's measure (RELATIVE, weight 3). */
 void dtx_mc_params_default(dtx_mc_params *p);

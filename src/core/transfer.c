@@ -28,6 +28,11 @@ const dtx_transfer_method *dtx_transfer_method_named(const char *name)
     return NULL;
 }
 
+const char *dtx_transfer_solver_name(const dtx_transfer_method *m, const dtx_transfer_params *prm)
+{
+    return m->solver_of && prm ? m->solver_of(prm) : m->solver_name;
+}
+
 void dtx_transfer_params_default(dtx_transfer_params *p, dtx_transfer_kind kind)
 {
     memset(p, 0, sizeof *p);

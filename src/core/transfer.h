@@ -141,8 +141,13 @@ typedef struct dtx_transfer_method {
     /* 1: a target may have several connected components. */
     int multi_component_target;
     /* The iterative solve, for reports ("Newton", "Gauss-Newton"); NULL
-     * when not iterative. */
+     * when not iterative.  A method with several solvers names the
+     * default's here (an output's result says only which method made it)
+     * and each plan's through solver_of. */
     const char *solver_name;
+    /* NULL, or the solve a plan with these parameters runs (a method with
+     * several solvers); see dtx_transfer_solver_name. */
+    const char *(*solver_of)(const dtx_transfer_params *prm);
     /* 1: frame infos carry inverted (iterative methods only). */
     int counts_inverted;
     /* Its settings (nsettings rows; NULL, 0 for a method without any),
@@ -177,6 +182,11 @@ const dtx_transfer_method *dtx_transfer_method_of(dtx_transfer_kind kind);
 /* The table whose name is name, as a job file or an output's "method"
  * attribute names it (NULL for an unknown name or NULL). */
 const dtx_transfer_method *dtx_transfer_method_named(const char *name);
+
+/* The iterative solve that method m runs with parameters prm, for
+ * reports: m->solver_of(prm), or m->solver_name (NULL when m is not
+ * iterative). */
+const char *dtx_transfer_solver_name(const dtx_transfer_method *m, const dtx_transfer_params *prm);
 
 /* For the methods' adapters: makes *buf hold at least n elements of size
  * bytes (*cap counts them), keeping it when it does.  DTX_ENOMEM. */

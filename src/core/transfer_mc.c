@@ -68,29 +68,51 @@
  * - x_j|): a pair that keeps its length holds its ends only along d, and A
  * makes every motion of a boundary vertex across d (a piece sliding along
  * its neighbour) far stiffer than it is.  The Newton solver takes the same
- * first iterate, then steps x += alpha dx with H dx = -grad E / 2, where H
- * (half E's Hessian) is A less, per pair, w3 c_ij min(1, l_ij / |x_i - x_j|)
- * (I - d d^T) on the pair's difference (the same for E4's rows, with |L v|
- * and L x).  The gradient comes for free: grad E / 2 = A x - b(x), b(x) the
- * fixed-point right-hand side with the directions of x.  H dx = r is solved
- * by conjugate gradients preconditioned with A's factor, from dx = 0 (so
- * that the first direction is the fixed-point step), until the residual in
- * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or at a
- * direction of negative curvature (H is indefinite where pairs are
- * compressed).  alpha halves from 1 until E decreases; when no step does,
- * the fixed-point step is taken, which always lowers E.  A frame has
- * converged when the Newton step, an estimate of the distance to the
- * minimiser (the fixed-point step underestimates it in the sliding
- * directions by the ratio of true to held stiffness), moves no vertex by
- * more than tol x the target diagonal and the full step is taken.
- * max_iter and the frame's iteration count include the first solve.
- * Measured (core.multicomponent, cat -> lion targets): the lion with a
- * shirt converges in 4-9 Newton steps (26-73 back-substitutions) where
- * the fixed-point iteration needs up to 31; the pebble lion with the
- * paper's absolute lengths in 10-17 steps; the pebble lion with relative
- * lengths (cracks of near-zero rest length, whose tangential curvature
- * swings from negative to large within a fraction of the crack width)
- * converges linearly and stops at max_iter.
+ * first iterate, then steps on the model E(x + dx) ~ E(x) - 2 r.dx + dx.H dx,
+ * where r = -grad E / 2 = b(x) - A x comes for free (b(x) the fixed-point
+ * right-hand side with the directions of x) and H, half E's Hessian, is A
+ * less, per pair, w3 c_ij (l_ij / |x_i - x_j|) (I - d d^T) on the pair's
+ * difference (the same for E4's rows, with |L v| and L x).  H is
+ * indefinite where pairs are compressed (|x_i - x_j| < l_ij).  Each step
+ * minimises the model in a trust region, |dx|_A <= delta in A's norm, by
+ * Steihaug-Toint conjugate gradients preconditioned with A's factor from dx
+ * = 0 (the first direction is the fixed-point step): until the residual in
+ * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or to
+ * the boundary along a direction of negative curvature or one that would
+ * leave the region.  The step stands when E falls by more than MC_TR_ACCEPT
+ * of the model's decrease; delta shrinks to a quarter of the step when E
+ * fell by less than a quarter of it and doubles after a step to the
+ * boundary that E followed to 3/4; a rejected step is halved up to
+ * MC_TR_BACKTRACK times (energy evaluations only), keeping the first half
+ * that lowers E.
+ *
+ * Why a trust region (measured on the cat -> pebble lion, relative
+ * lengths, with dtx_bench_mc): the pairs across its cracks are as short
+ * as the cracks are wide (0.4% of the diagonal), and a piece sliding by a
+ * fraction of that turns them, so a quadratic model of E holds only within
+ * a fraction of a crack width, while from the first iterate the pieces
+ * slide by several; and compressed pairs make H indefinite: the conjugate
+ * gradients of the line-search Newton solver this one replaces met
+ * negative curvature in most steps, stopped there, and its line search cut
+ * most steps by 4 to 64 (0 of 9 frames converged within 30 steps);
+ * in the trust region all 9 converge in 44-86 steps (about 700-1200
+ * back-substitutions), the last few quadratically, and the shirt within
+ * 11.
+ * Tried, and no faster: moving whole pieces by Newton steps in their
+ * translations between steps (E1, E2, E4 do not change); 20 or 60
+ * accelerated fixed-point iterations before the Newton steps (0.78 and
+ * 0.83 s CPU a frame against 0.71 s); a looser conjugate-gradient
+ * tolerance far from the minimiser (Eisenstat-Walker), 20 or 80 products
+ * a step at most, and other radius factors (the steps are as many).
+ *
+ * A frame has converged when a Newton step inside the region (conjugate
+ * gradients to MC_CG_ETA), an estimate of the distance to the minimiser,
+ * moves no vertex by more than tol x the target diagonal.  Where E is
+ * flatter than quadratic (a piece moved off its neighbours' surface
+ * stretches their pairs only to second order, so E is quartic in it) the
+ * Newton step is a third of that distance or more.  max_iter (default
+ * DTX_MC_MAX_ITER_NEWTON) counts the first solve and the Newton steps,
+ * taken or not.
  *
  * Every frame is solved by one thread with its own workspace, in a fixed
  * order, so its result does not depend on the thread count or on how the
@@ -130,7 +152,7 @@ void dtx_mc_params_default(dtx_mc_params *p)
     p->lengths = DTX_MC_LENGTHS_RELATIVE;
     p->w_laplacian = 1.0;
     p->eps_factor = 1.5;
-    p->max_iter = 30;
+    p->max_iter = 0; /* the solver's */
     p->tol = 1e-6;
     p->solver = DTX_MC_SOLVER_FIXED_POINT;
 }
@@ -606,13 +628,13 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
 
     *out = NULL;
     if (!(prm->w_match > 0.0) || !(prm->w_orphan >= 0.0) || !(prm->w_proximity >= 0.0) ||
-        !(prm->w_laplacian >= 0.0) || prm->max_iter < 1 || !(prm->tol >= 0.0) ||
+        !(prm->w_laplacian >= 0.0) || prm->max_iter < 0 || !(prm->tol >= 0.0) ||
         !(prm->eps_factor >= 0.0) ||
         (prm->lengths != DTX_MC_LENGTHS_RELATIVE && prm->lengths != DTX_MC_LENGTHS_DIAGONAL) ||
         (prm->solver != DTX_MC_SOLVER_FIXED_POINT && prm->solver != DTX_MC_SOLVER_NEWTON))
         return dtx_seterr(err, DTX_EINVAL,
                           "multicomponent parameters out of range (w_match > 0, other weights, "
-                          "tol and eps_factor >= 0, max_iter >= 1)");
+                          "tol and eps_factor >= 0, max_iter >= 0)");
     st = dtx__check_pins(anchor, pins, npins, nv, err);
     if (st != DTX_OK)
         return st;
@@ -639,7 +661,9 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     p->npairs = npairs;
     p->anchor = anchor;
     p->npins = npins;
-    p->max_iter = prm->max_iter;
+    p->max_iter = prm->max_iter > 0                     ? prm->max_iter
+                  : prm->solver == DTX_MC_SOLVER_NEWTON ? DTX_MC_MAX_ITER_NEWTON
+                                                        : DTX_MC_MAX_ITER_FIXED_POINT;
     p->Fs = dtx_alloc((size_t)src->nf, 3 * sizeof *p->Fs, 0);
     p->Ft = dtx_alloc((size_t)nf, 3 * sizeof *p->Ft, 0);
     p->Vt = dtx_alloc((size_t)nv, 3 * sizeof *p->Vt, 0);
@@ -1345,10 +1369,18 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
 /* Newton steps (DTX_MC_SOLVER_NEWTON, see the file comment)           */
 /* ------------------------------------------------------------------ */
 
-/* Conjugate-gradient products per Newton step, at most, and the factor by
- * which the residual (in A^-1's norm) falls before the step is taken. */
+/* Newton steps (see the file comment): conjugate-gradient products per
+ * step at most; the factor by which the residual (in A^-1's norm) falls
+ * before a step inside the trust region is taken; the first radius, in
+ * units of the first fixed-point step's length (A's norm); the least ratio
+ * of E's decrease to the model's for a step to stand; halvings of a
+ * rejected step tried; E's relative rounding. */
 #define MC_CG_MAX 40
 #define MC_CG_ETA 0.01
+#define MC_TR_INIT 10.0
+#define MC_TR_ACCEPT 1e-4
+#define MC_TR_BACKTRACK 4
+#define MC_ROUND 1e-12
 
 /* w->HP = H w->P (both nfree x 3, column-major): H is half E's Hessian at
  * the frame's iterate (fr->x, fr->lx), A less what A holds across each
@@ -1432,15 +1464,17 @@ static int solve_a(const dtx_mc_plan *p, mc_worker *w)
 }
 
 /* A frame after frame_start, to its end: the first solve, then Newton
- * steps.  fr->it counts the first solve and the Newton steps.  Returns 0
- * when a solve ran out of memory (the caller reports the frame failed). */
+ * steps in a trust region (see the file comment).  fr->it counts the first
+ * solve and the Newton steps, taken or not.  Returns 0 when a solve ran out
+ * of memory (the caller reports the frame failed). */
 static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
 {
     mc_frame *fr = &w->fr;
     const size_t n3 = 3 * (size_t)p->nfree;
-    double *x = fr->xf, *r = fr->fl, *dx = fr->gl, *z0 = fr->df, *xt = fr->df + n3;
+    double *x = fr->xf, *r = fr->fl, *dx = fr->gl, *xt = fr->df;
     double *pv = w->P->x, *hp = w->HP->x;
     double one[2] = {1, 0}, zero[2] = {0, 0};
+    double delta = -1.0; /* the trust region's radius in A's norm; set by the first step */
     int converged = 0;
     if (!solve_a(p, w))
         return 0;
@@ -1448,34 +1482,58 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
     memcpy(x, w->X->x, n3 * sizeof *x);
     set_iterate(p, fr, x);
     while (fr->it < p->max_iter) {
-        double e, rz, rz0, dmax = 0.0, alpha = 1.0;
-        int lowered = 0;
-        /* r = b(x) - A x = -grad E / 2; b(x) goes to w->B. */
+        /* m: the model's change of E / 2 along dx; dAd, dAp, pAp: dx.A dx,
+         * dx.A p, p.A p for the conjugate direction p (Steihaug's
+         * recurrences, without products with A). */
+        double e, et, rz, rz0, m = 0.0, dAd = 0.0, dAp = 0.0, pAp, dmax = 0.0, rho;
+        int boundary = 0;
+        /* r = b(x) - A x = -grad E / 2 (b(x) into w->B), and z = A^-1 r,
+         * the fixed-point step, as the first conjugate direction. */
         e = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
         memcpy(pv, x, n3 * sizeof *pv);
         cholmod_sdmult(p->A, 0, one, zero, w->P, w->HP, &w->cc);
         for (size_t i = 0; i < n3; i++)
             r[i] = fr->b[i] - hp[i];
-        /* Conjugate gradients on H dx = r from dx = 0, preconditioned by A. */
         memset(dx, 0, n3 * sizeof *dx);
         memcpy(fr->b, r, n3 * sizeof *r);
         if (!solve_a(p, w))
             return 0;
-        memcpy(z0, w->X->x, n3 * sizeof *z0);
-        memcpy(pv, z0, n3 * sizeof *pv);
-        rz = rz0 = dotn(r, z0, n3);
-        for (int k = 0; k < MC_CG_MAX && rz0 > 0.0; k++) {
-            double php, a, rzn;
+        memcpy(pv, w->X->x, n3 * sizeof *pv);
+        rz = rz0 = dotn(r, pv, n3);
+        if (!(rz0 > 0.0)) { /* a stationary point: nothing moves */
+            converged = 1;
+            break;
+        }
+        if (delta < 0.0)
+            delta = MC_TR_INIT * sqrt(rz0);
+        pAp = rz0;
+
+        /* Steihaug-Toint: conjugate gradients on H dx = r from dx = 0,
+         * preconditioned by A, until the residual (in A^-1's norm) has
+         * fallen by MC_CG_ETA, or to the region's boundary where a step
+         * would leave it or a direction has negative curvature. */
+        for (int k = 0; k < MC_CG_MAX; k++) {
+            double php, a, rzn, beta;
             const double *z;
             hess_apply(p, w);
             php = dotn(pv, hp, n3);
-            if (!(php > 0.0))
-                break; /* negative curvature: keep dx so far */
-            a = rz / php;
+            a = php > 0.0 ? rz / php : 0.0;
+            if (!(php > 0.0) || dAd + a * (2.0 * dAp + a * pAp) >= delta * delta) {
+                double disc = dAp * dAp + pAp * (delta * delta - dAd);
+                double tau = (-dAp + sqrt(disc > 0.0 ? disc : 0.0)) / pAp;
+                for (size_t i = 0; i < n3; i++)
+                    dx[i] += tau * pv[i];
+                m += -tau * rz + 0.5 * tau * tau * php;
+                dAd = delta * delta;
+                boundary = 1;
+                break;
+            }
             for (size_t i = 0; i < n3; i++) {
                 dx[i] += a * pv[i];
                 r[i] -= a * hp[i];
             }
+            m -= 0.5 * a * rz;
+            dAd += a * (2.0 * dAp + a * pAp);
             if (k + 1 == MC_CG_MAX)
                 break;
             memcpy(fr->b, r, n3 * sizeof *r);
@@ -1485,32 +1543,60 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             rzn = dotn(r, z, n3);
             if (!(rzn > MC_CG_ETA * MC_CG_ETA * rz0))
                 break;
+            beta = rzn / rz;
+            dAp = beta * (dAp + a * pAp);
+            pAp = rzn + beta * beta * pAp;
             for (size_t i = 0; i < n3; i++)
-                pv[i] = z[i] + (rzn / rz) * pv[i];
+                pv[i] = z[i] + beta * pv[i];
             rz = rzn;
         }
         fr->it++;
-        for (size_t i = 0; i < n3; i++)
+
+        /* rho: E's decrease over the model's.  A decrease the size of E's
+         * rounding says nothing about the model: such a step stands unless
+         * E rose by more than rounding. */
+        for (size_t i = 0; i < n3; i++) {
+            xt[i] = x[i] + dx[i];
             dmax = fabs(dx[i]) > dmax ? fabs(dx[i]) : dmax;
-        /* Backtracking on E from the full step. */
-        for (int ls = 0; ls < 12 && dmax > 0.0; ls++, alpha *= 0.5) {
-            for (size_t i = 0; i < n3; i++)
-                xt[i] = x[i] + alpha * dx[i];
-            set_iterate(p, fr, xt);
-            if (energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx) < e) {
-                lowered = 1;
+        }
+        set_iterate(p, fr, xt);
+        et = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+        if (-2.0 * m > MC_ROUND * fabs(e))
+            rho = (e - et) / (-2.0 * m);
+        else
+            rho = e - et >= -MC_ROUND * fabs(e) ? 1.0 : 0.0;
+        if (rho < 0.25)
+            delta = 0.25 * sqrt(dAd);
+        else if (rho > 0.75 && boundary)
+            delta *= 2.0;
+        if (rho > MC_TR_ACCEPT) {
+            memcpy(x, xt, n3 * sizeof *x);
+            /* Converged: an unconstrained Newton step, an estimate of the
+             * distance to the minimiser, moves no vertex more than tol x
+             * the diagonal. */
+            if (!boundary && !(dmax > p->tol_abs)) {
+                converged = 1;
                 break;
             }
-        }
-        if (!lowered) {
-            for (size_t i = 0; i < n3; i++)
-                xt[i] = x[i] + z0[i];
-            set_iterate(p, fr, xt);
-        }
-        memcpy(x, xt, n3 * sizeof *x);
-        if (lowered && alpha == 1.0 && !(dmax > p->tol_abs)) {
-            converged = 1;
-            break;
+        } else {
+            /* Rejected: first the shorter steps along dx (energy
+             * evaluations only); the next radius is half the step taken
+             * (a quarter of this one's without one). */
+            double alpha = 0.5;
+            int lowered = 0;
+            for (int ls = 0; ls < MC_TR_BACKTRACK && !lowered; ls++, alpha *= 0.5) {
+                for (size_t i = 0; i < n3; i++)
+                    xt[i] = x[i] + alpha * dx[i];
+                set_iterate(p, fr, xt);
+                et = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+                lowered = e - et > -MC_TR_ACCEPT * alpha * 2.0 * m;
+            }
+            if (lowered) { /* alpha is half the step taken */
+                memcpy(x, xt, n3 * sizeof *x);
+                delta = alpha * sqrt(dAd);
+            } else {
+                set_iterate(p, fr, x);
+            }
         }
     }
     frame_finish(p, fr, converged);
@@ -1640,6 +1726,11 @@ static const dtx_setting mc_settings[] = {
     {"w_proximity", DTX_SETTING_DOUBLE, offsetof(dtx_mc_params, w_proximity), NULL},
 };
 
+static const char *mc_solver_of(const dtx_transfer_params *prm)
+{
+    return prm->u.mc.solver == DTX_MC_SOLVER_NEWTON ? "Newton" : "Gauss-Newton";
+}
+
 const dtx_transfer_method dtx_method_multicomponent = {
     .name = "multicomponent",
     .kind = DTX_TRANSFER_MULTICOMPONENT,
@@ -1649,6 +1740,7 @@ const dtx_transfer_method dtx_method_multicomponent = {
     .uses_pairs = 1,
     .multi_component_target = 1,
     .solver_name = "Gauss-Newton",
+    .solver_of = mc_solver_of,
     .settings = mc_settings,
     .nsettings = (int)(sizeof mc_settings / sizeof *mc_settings),
     .plan_create = mc_method_create,

@@ -122,22 +122,24 @@ static void say_solves(run_state *r, int t, int s)
                  (long long)sp->inverted_frames, (long long)sp->max_inverted,
                  (long long)sp->max_inverted_frame);
     run_say(r, "dtx: result %s/%s: %s %.1f iterations per frame (at most %lld)%s%s",
-            r->tg[t].tj->name, r->sq[s].name, r->method->solver_name,
+            r->tg[t].tj->name, r->sq[s].name, dtx_transfer_solver_name(r->method, &r->prm),
             (double)sp->iterations / (double)sp->frames, (long long)sp->max_iterations, more,
             sp->unconverged || sp->inverted_frames ? " (per frame: frame_stats in the output)"
                                                    : "");
 }
 
 /* The solves of an iterative method's result as the summary's object
- * named after the method, its keys after the solver ("Gauss-Newton":
- * "gauss_newton_iterations_mean"), with the inverted triangles where the
- * method counts them. */
-static void json_solves(FILE *f, const dtx_transfer_method *m, const solve_stats *sv)
+ * named after the method, its keys after the solver of the run's parameters
+ * ("Gauss-Newton": "gauss_newton_iterations_mean"), with the inverted
+ * triangles where the method counts them. */
+static void json_solves(FILE *f, const dtx_transfer_method *m, const dtx_transfer_params *prm,
+                        const solve_stats *sv)
 {
+    const char *solver = dtx_transfer_solver_name(m, prm);
     char key[64];
     size_t i;
-    for (i = 0; m->solver_name[i] && i + 1 < sizeof key; i++)
-        key[i] = m->solver_name[i] == '-' ? '_' : (char)tolower((unsigned char)m->solver_name[i]);
+    for (i = 0; solver[i] && i + 1 < sizeof key; i++)
+        key[i] = solver[i] == '-' ? '_' : (char)tolower((unsigned char)solver[i]);
     key[i] = '\0';
     fprintf(f,
             ", \"%s\": {\"%s_iterations_mean\": %.4g, \"%s_iterations_max\": %lld, "
@@ -271,7 +273,7 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
             fprintf(f, ", \"frames\": %lld, \"residual\": ", (long long)rc->st.frames);
             json_stats(f, &rc->st);
             if (r->method->iterative && rc->sv.frames > 0)
-                json_solves(f, r->method, &rc->sv);
+                json_solves(f, r->method, &r->prm, &rc->sv);
             fputc('}', f);
         }
     fprintf(f, "\n  ]\n}\n");

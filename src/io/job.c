@@ -539,6 +539,28 @@ static void read_settings(const cJSON *obj, const setting_ref *refs, int n)
     }
 }
 
+const dtx_transfer_method *dtx_job_params_read(const char *params_json, dtx_transfer_params *prm)
+{
+    cJSON *doc = params_json ? cJSON_Parse(params_json) : NULL;
+    const cJSON *name = doc ? get(doc, "method") : NULL;
+    const dtx_transfer_method *m =
+        cJSON_IsString(name) ? dtx_transfer_method_named(name->valuestring) : NULL;
+    if (m) {
+        const cJSON *obj = get(doc, m->name);
+        void *base = m->kind == DTX_TRANSFER_MULTICOMPONENT ? (void *)&prm->u.mc
+                     : m->kind == DTX_TRANSFER_SPRINGS      ? (void *)&prm->u.springs
+                     : m->kind == DTX_TRANSFER_BIHARMONIC   ? (void *)&prm->u.bh
+                                                            : NULL;
+        dtx_transfer_params_default(prm, m->kind);
+        for (int i = 0; base && i < m->nsettings; i++) {
+            setting_ref ref = {&m->settings[i], base};
+            read_settings(obj, &ref, 1);
+        }
+    }
+    cJSON_Delete(doc);
+    return m;
+}
+
 static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
 {
     const cJSON *src = get(doc, "source"), *tgts = get(doc, "targets"), *out = get(doc, "output");

@@ -177,6 +177,12 @@ char *dtx_job_params_json(const dtx_job *job);
  * printed with %.17g (needs the default "C" LC_NUMERIC locale).  NULL when
  * out of memory or job is NULL.  Thread-safe.) */
 
+/* The method named by a result's "parameters" text (dtx_job_params_json's
+ * format) and its settings from that text into *prm (the method's defaults
+ * for any not given).  NULL, *prm untouched, when the text does not parse
+ * or names no known method.  Thread-safe. */
+const dtx_transfer_method *dtx_job_params_read(const char *params_json, dtx_transfer_params *prm);
+
 /* Canonical parameter text of the correspondence the job's method builds
  * on (corr: its table's correspondence, transfer.h), for the correspondence
  * cache key: sp04's text, as dtx_job_params_json gives it for the job with

@@ -48,6 +48,17 @@ static void members(void)
     CHECK(dtx_method_multicomponent.uses_pairs &&
           dtx_method_multicomponent.multi_component_target &&
           strcmp(dtx_method_multicomponent.solver_name, "Gauss-Newton") == 0);
+    {
+        /* A run names the solver its parameters choose. */
+        dtx_transfer_params prm;
+        dtx_transfer_params_default(&prm, DTX_TRANSFER_MULTICOMPONENT);
+        CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_multicomponent, &prm), "Gauss-Newton") ==
+              0);
+        prm.u.mc.solver = DTX_MC_SOLVER_NEWTON;
+        CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_multicomponent, &prm), "Newton") == 0);
+        dtx_transfer_params_default(&prm, DTX_TRANSFER_SPRINGS);
+        CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_springs, &prm), "Newton") == 0);
+    }
     CHECK(dtx_method_springs.uses_proxy && !dtx_method_springs.uses_pairs &&
           dtx_method_springs.counts_inverted &&
           strcmp(dtx_method_springs.solver_name, "Newton") == 0);

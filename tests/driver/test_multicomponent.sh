@@ -103,6 +103,9 @@ JOB
     N=/results/lion-garment/cat-poses-newton
     nstats() { h5dump -d "$N/frame_stats" "$1" | grep -E '^ *\([0-9]+,0\):' | tr -d '(),:' | awk '{print $2, $3, $4}'; }
     check "newton: every shirt frame converged" test "$(nstats "$W/np1.h5" | awk '$2 == 1 && $1 <= 30' | wc -l)" -eq 9
+    check "newton: the summary names the solver" grep -q '"multicomponent": {"newton_iterations_mean"' "$W/np1.h5.summary.json"
+    check "newton: report written" "$DTX" report "$W/np1.h5" --no-pictures
+    check "newton: the report names the solver" test "$(grep -c '^Newton solves (frame_stats): ' "$W/np1.report.md")" -eq 1
     check "newton: 1 thread == 2 threads (1e-12)" "$DTX" diff "$W/np1.h5" "$W/np1t2.h5" $N --tol 1e-12
 fi
 check "contact sheet renders" "$DTX" render "$W/np2.h5" /results/pebble-lion/cat-poses -o "$W/pebble-lion.png" --count 4
