@@ -277,4 +277,10 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
 dtx_status dtx_springs_apply(dtx_springs_plan *plan, int64_t nframes, const double *Xs, double *Xt,
                              dtx_springs_frame_info *info, dtx_error *err);
 
+/* The target triangles of y (nv_t x 3, any target frame in the solve's
+ * orientation, e.g. sp04's result for source frame xs) that count as
+ * inverted against source frame xs (nv_s x 3) by the test above: a
+ * reference for the counts in dtx_springs_frame_info.  Thread-safe. */
+int32_t dtx_springs_count_inverted(const dtx_springs_plan *plan, const double *xs, const double *y);
+
 #endif /* DTX_SPRINGS_H */
