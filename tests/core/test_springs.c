@@ -648,6 +648,7 @@ static void test_proxy(const dtx_mesh *S)
     CHECK_DBL(d_id, <, 1e-9);
     CHECK_DBL(d_def, <, 5e-3);
     CHECK_EQ_INT(fi[1].inverted, 0);
+    CHECK(fi[0].converged && fi[1].converged);
     dtx_springs_plan_free(&plan);
     dtx_mesh_free(&T);
     free(Xs);
