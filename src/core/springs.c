@@ -2373,11 +2373,10 @@ int32_t dtx_springs_count_inverted(const dtx_springs_plan *p, const double *xs, 
     return fi.inverted;
 }
 
-/* One frame: xs (nv_s x 3) to y (nv_t x 3). */
 /* The frame's barrier (see assemble_barrier): every solve-mesh triangle
- * whose rest and source triangles are not degenerate and that the fine
- * start x0 has right side up; returns the triangles left out because x0
- * has them folded. */
+ * whose rest and source triangles are not degenerate, in the barrier when
+ * the fine start x0 has it right side up, under the unfolding penalty when
+ * x0 has it folded; returns how many x0 has folded. */
 static int32_t frame_barrier(const dtx_springs_plan *p, worker *w, const double *xs,
                              const double *x0, barrier_terms *bt)
 {
