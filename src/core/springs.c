@@ -521,7 +521,11 @@ struct dtx_springs_plan {
     /* sp04 start: sp04 from the source onto the solve mesh (identity pairs)
      * and the starts of the frames of the current apply. */
     dtx_sp04_plan *sp04;
-    double *starts;
+    /* With a proxy of one connected component: sp04 from the proxy (rest
+     * Vr) onto the target, every target triangle paired with its driving
+     * proxy triangle, which carries each frame's solution to the target. */
+    dtx_sp04_plan *carry;
+    double *starts;     /* the frames' starts, then (with carry) their solutions */
     int64_t starts_cap; /* frames starts holds */
 
     int max_iter, coarse_max_iter;
@@ -615,6 +619,7 @@ void dtx_springs_plan_free(dtx_springs_plan **pp)
     free(p->tri_kappa);
     free(p->tri_sp);
     dtx_sp04_plan_free(&p->sp04);
+    dtx_sp04_plan_free(&p->carry);
     free(p->starts);
     free(p);
     *pp = NULL;
@@ -1156,6 +1161,9 @@ static int32_t find_spring(const level *L, int32_t i, int32_t j)
  * their rest normals, double areas, weights and edge springs.  A triangle
  * of (near) zero area or with an edge whose spring was dropped is left
  * out (area 0). */
+/* The barrier's weight per sqrt(rest double area) (see assemble_barrier). */
+#define BARRIER_KAPPA 0.1
+
 static dtx_status build_barrier(dtx_springs_plan *p, const double *Vr, dtx_error *err)
 {
     const level *L0 = &p->lev[0];
@@ -1184,7 +1192,7 @@ static dtx_status build_barrier(dtx_springs_plan *p, const double *Vr, dtx_error
             p->tri_n0[3 * (size_t)t + k] = n[k] / A;
         p->tri_area[t] = A;
         /* Length units, like a spring's k (l - r)^2 with k = 1 / r. */
-        p->tri_kappa[t] = sqrt(A);
+        p->tri_kappa[t] = BARRIER_KAPPA * sqrt(A);
     }
     return DTX_OK;
 }
@@ -1212,6 +1220,38 @@ static dtx_status build_sp04_start(dtx_springs_plan *p, const dtx_mesh *src, con
     if (st == DTX_EMESH)
         dtx_error_prefix(err, "springs start \"sp04\" (a target of several connected components "
                               "needs start \"linear\" or \"rest\")");
+    return st;
+}
+
+/* The carry to the target (see the plan's field): target triangle f
+ * follows the deformation gradient of its driving proxy triangle, in the
+ * least-squares sense of sp04, so neighbouring target triangles bound to
+ * proxy triangles that turn differently (where the correspondence crumpled
+ * the proxy) still meet without folding.  A target of several components
+ * keeps the closest-point binding (p->carry stays NULL). */
+static dtx_status build_carry(dtx_springs_plan *p, const dtx_mesh *tgt, const double *Vr,
+                              dtx_error *err)
+{
+    dtx_mesh sm;
+    dtx_status st;
+    int32_t *pairs = dtx_alloc((size_t)p->nf_t, 2 * sizeof *pairs, 0);
+    if (!pairs)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
+    for (int32_t f = 0; f < p->nf_t; f++) {
+        pairs[2 * (size_t)f] = p->drive[f];
+        pairs[2 * (size_t)f + 1] = f;
+    }
+    sm.nv = p->nv_s;
+    sm.nf = p->nf_s;
+    sm.V = (double *)Vr;
+    sm.F = p->Fs;
+    st = dtx_sp04_plan_create(&sm, tgt, pairs, p->nf_t, DTX_ANCHOR_FIXED, NULL, NULL, 0, &p->carry,
+                              err);
+    free(pairs);
+    if (st == DTX_EMESH || st == DTX_ESOLVE) {
+        p->carry = NULL;
+        return DTX_OK;
+    }
     return st;
 }
 
@@ -1293,6 +1333,11 @@ dtx_status dtx_springs_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, con
     st = bind_target(p, tgt, Vr, err);
     if (st != DTX_OK)
         goto fail;
+    if (p->proxy) {
+        st = build_carry(p, tgt, Vr, err);
+        if (st != DTX_OK)
+            goto fail;
+    }
     /* The barrier needs a start whose triangles face as the source turns
      * them and whose orientation is the source's: the sp04 start's. */
     p->barrier = prm->barrier && prm->start == DTX_SPRINGS_START_SP04;
@@ -1412,19 +1457,32 @@ static void assemble(const level *L, const double *rtil, const double *x, double
  * source triangle (as dtx_springs_apply counts inversions), so s_t = a_t /
  * A_t is 1 at rest and 0 when the triangle stands at 90 degrees to where
  * the source turns it (or has collapsed).  Its term is
- *     kappa_t b(s_t),  b(s) = -(s - h_t)^2 log(s / h_t) for 0 < s < h_t,
- * 0 for s >= h_t and +inf for s <= 0 (the C2 barrier of incremental
- * potential contact), kappa_t = sqrt(A_t) (length units, like a spring's
- * term), h_t = BARRIER_SHAT min(1, the source triangle's area ratio in the
- * frame).  It is zero on every triangle that keeps a tenth of the area its
- * source triangle keeps, in the expected orientation, so it changes the
- * springs' equilibrium only where a triangle would otherwise fold (and
- * T = S, whose s_t are the source's, never meets it); since the energy is
- * +inf on a folded triangle, a line search that accepts only decreases
- * never reaches one.  b is convex on (0, h_t) (b'' > 0): the projected Hessian
- * keeps b'' grad a grad a^T, the exact one adds b' times a's (constant,
- * indefinite) Hessian. */
+ *     kappa_t b(s_t / h_t),  b(u) = (1 - u)^3 / u for 0 < u < 1,
+ * 0 for u >= 1 and +inf for u <= 0, kappa_t = BARRIER_KAPPA sqrt(A_t)
+ * (length units, like a spring's term), h_t = BARRIER_SHAT min(1, the
+ * source triangle's area ratio in the frame).  b is C2 at u = 1 and convex
+ * (b'' = 6 (1 - u) / u + 6 (1 - u)^2 / u^2 + 2 (1 - u)^3 / u^3 > 0): the
+ * projected Hessian keeps b'' grad a grad a^T, the exact one adds b' times
+ * a's (constant, indefinite) Hessian.  It grows like 1 / u, not like the
+ * log of incremental potential contact's barrier, which compressed springs
+ * could beat: with it Newton pushed triangles to s ~ 1e-12, where the
+ * Hessian no longer factors.  It is zero on every triangle that keeps a
+ * tenth of the area its source triangle keeps, in the expected orientation,
+ * so it changes the springs' equilibrium only where a triangle would
+ * otherwise fold (and T = S, whose s_t are the source's, never meets it);
+ * since the energy is +inf on a folded triangle, a line search that accepts
+ * only decreases never reaches one.
+ *
+ * A triangle that the start already has folded (s_t <= 0) gets the
+ * unfolding penalty UNFOLD_WEIGHT kappa_t (1 - s_t / h_t)^2 instead (finite
+ * on both sides of 0, so Newton can turn it over), and joins the barrier
+ * once s_t reaches UNFOLD_JOIN h_t. */
 #define BARRIER_SHAT 0.1
+
+/* The weight W of the unfolding penalty, and the share of h_t a triangle
+ * under it must reach to join the barrier. */
+#define UNFOLD_WEIGHT 100.0
+#define UNFOLD_JOIN 0.5
 
 typedef struct {
     int32_t nt;
@@ -1434,7 +1492,9 @@ typedef struct {
     const double *kappa;     /* nt weights */
     const double *m;         /* nt x 3 the frame's expected unit normals */
     const double *shat;      /* nt: the frame's thresholds */
-    const unsigned char *on; /* nt: in the barrier this frame */
+    unsigned char *on;       /* nt: 1 in the barrier this frame, 2 folded at
+                                the start (the unfolding penalty, until it is
+                                right side up), 0 neither */
 } barrier_terms;
 
 /* a_t of x and the gradients of a_t at its three vertices. */
@@ -1461,11 +1521,17 @@ static double barrier_energy(const barrier_terms *bt, const double *x)
         if (!bt->on[t])
             continue;
         s = oriented_area(x, bt->F + 3 * (size_t)t, bt->m + 3 * (size_t)t, NULL) / bt->area[t];
+        if (bt->on[t] == 2) {
+            const double w = 1.0 - s / bt->shat[t];
+            if (w > 0.0)
+                e += UNFOLD_WEIGHT * bt->kappa[t] * w * w;
+            continue;
+        }
         if (!(s > 0.0))
             return INFINITY;
         if (s < bt->shat[t]) {
-            const double d = s - bt->shat[t];
-            e -= bt->kappa[t] * d * d * log(s / bt->shat[t]);
+            const double u = s / bt->shat[t], w = 1.0 - u;
+            e += bt->kappa[t] * w * w * w / u;
         }
     }
     return e;
@@ -1491,19 +1557,28 @@ static void assemble_barrier(const level *L, const barrier_terms *bt, const doub
     for (int32_t t = 0; t < bt->nt; t++) {
         const int32_t *tri = bt->F + 3 * (size_t)t;
         const double *m = bt->m + 3 * (size_t)t;
-        double gr[3][3], s, d, db, d2, S[3][3], sh;
+        double gr[3][3], s, db, d2, S[3][3], sh;
         int32_t fv[3];
         if (!bt->on[t])
             continue;
         s = oriented_area(x, tri, m, gr) / bt->area[t];
         sh = bt->shat[t];
-        if (!(s < sh) || !(s > 0.0))
+        if (!(s < sh))
             continue;
-        d = s - sh;
-        /* b'(s) and b''(s), scaled to a_t = A_t s. */
-        db = bt->kappa[t] * (-2.0 * d * log(s / sh) - d * d / s) / bt->area[t];
-        d2 = bt->kappa[t] * (-2.0 * log(s / sh) - 4.0 * d / s + d * d / (s * s)) /
-             (bt->area[t] * bt->area[t]);
+        if (bt->on[t] == 2) {
+            /* The unfolding penalty W kappa (1 - u)^2. */
+            const double sc = 1.0 / (sh * bt->area[t]);
+            db = -2.0 * UNFOLD_WEIGHT * bt->kappa[t] * (1.0 - s / sh) * sc;
+            d2 = 2.0 * UNFOLD_WEIGHT * bt->kappa[t] * sc * sc;
+        } else if (!(s > 0.0)) {
+            continue;
+        } else {
+            /* b'(u) and b''(u), scaled to a_t = A_t h_t u. */
+            const double u = s / sh, w = 1.0 - u, sc = 1.0 / (sh * bt->area[t]);
+            db = -bt->kappa[t] * w * w * (1.0 + 2.0 * u) / (u * u) * sc;
+            d2 = bt->kappa[t] * (6.0 * w / u + 6.0 * w * w / (u * u) + 2.0 * w * w * w / (u * u * u)) *
+                 sc * sc;
+        }
         /* a's Hessian: block (p, q) is S for q = p + 1 (mod 3), -S for
          * q = p - 1, 0 for q = p, with S v = v x m. */
         S[0][0] = S[1][1] = S[2][2] = 0.0;
@@ -1548,7 +1623,7 @@ static double barrier_max_step(const level *L, const barrier_terms *bt, const do
         const int32_t *tri = bt->F + 3 * (size_t)t;
         const double *m = bt->m + 3 * (size_t)t;
         double d[3][3], e1[3], e2[3], d1[3], d2[3], q[3], c0, c1, c2, r = INFINITY;
-        if (!bt->on[t])
+        if (bt->on[t] != 1)
             continue;
         for (int v = 0; v < 3; v++) {
             const int32_t f = L->freeidx[tri[v]];
@@ -1604,6 +1679,9 @@ static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common
 /* The smallest share theta of the Hessian's indefinite part that Newton
  * keeps (below it, none: the projected Hessian). */
 #define THETA_MIN (1.0 / 64.0)
+
+/* Newton's energy test (see newton). */
+#define FTOL 1e-10
 
 typedef struct {
     int iterations;
@@ -1734,6 +1812,21 @@ static int rigid_free_step(const level *L, level_work *lw, cholmod_common *cc)
         for (size_t i = 0; i < 3 * (size_t)nf; i++)
             d[i] -= Z[(size_t)b * 3 * nf + i] * lam[b];
     return 1;
+}
+
+/* Moves every triangle under the unfolding penalty that has reached
+ * UNFOLD_JOIN h_t into the barrier; returns how many did. */
+static int unfold_join(const barrier_terms *bt, const double *x)
+{
+    int joined = 0;
+    for (int32_t t = 0; t < bt->nt; t++)
+        if (bt->on[t] == 2 &&
+            oriented_area(x, bt->F + 3 * (size_t)t, bt->m + 3 * (size_t)t, NULL) / bt->area[t] >=
+                UNFOLD_JOIN * bt->shat[t]) {
+            bt->on[t] = 1;
+            joined++;
+        }
+    return joined;
 }
 
 static double total_energy(const level *L, const level_work *lw, const barrier_terms *bt,
@@ -1908,6 +2001,14 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             break;
         }
         memcpy(lw->x, lw->xt, (size_t)L->n * 3 * sizeof *lw->x);
+        if (bt && unfold_join(bt, lw->x)) {
+            /* A triangle folded at the start is right side up: it joins the
+             * barrier, which changes the energy (up: the barrier is not
+             * zero until h_t). */
+            e = total_energy(L, lw, bt, lw->x);
+            theta = 0.0;
+            continue;
+        }
         /* Near the minimum the exact Hessian is positive definite and gives
          * quadratic convergence where the projected one converges only
          * linearly (when springs stay compressed at the equilibrium): it is
@@ -1917,11 +2018,18 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             theta = theta > 0.0 ? fmin(1.0, 2.0 * theta) : THETA_MIN;
         else if (alpha < 0.5)
             theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
-        e = et;
-        if (sqrt(dmax2) <= tol * L->diag) {
+        /* Converged when the step is below tol, or when a full Newton step
+         * lowered the energy by less than a relative FTOL (the energy test
+         * of L-BFGS-B, whose default is 2.2e-9): where the minimum is
+         * degenerate (springs that can turn freely about a compressed
+         * neighbour) Newton converges only linearly and its steps shrink
+         * slowly while the energy no longer changes. */
+        if (sqrt(dmax2) <= tol * L->diag || (alpha == 1.0 && e - et <= FTOL * fabs(et))) {
+            e = et;
             res->converged = 1;
             break;
         }
+        e = et;
     }
     res->energy = e;
 }
@@ -2257,11 +2365,18 @@ static void count_inverted(const dtx_springs_plan *p, const double *xs, const do
     }
 }
 
-/* One frame: xs (nv_s x 3) to y (nv_t x 3). */
+int32_t dtx_springs_count_inverted(const dtx_springs_plan *p, const double *xs, const double *y)
+{
+    const double Q[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1};
+    dtx_springs_frame_info fi;
+    count_inverted(p, xs, y, Q, &fi);
+    return fi.inverted;
+}
+
 /* The frame's barrier (see assemble_barrier): every solve-mesh triangle
- * whose rest and source triangles are not degenerate and that the fine
- * start x0 has right side up; returns the triangles left out because x0
- * has them folded. */
+ * whose rest and source triangles are not degenerate, in the barrier when
+ * the fine start x0 has it right side up, under the unfolding penalty when
+ * x0 has it folded; returns how many x0 has folded. */
 static int32_t frame_barrier(const dtx_springs_plan *p, worker *w, const double *xs,
                              const double *x0, barrier_terms *bt)
 {
@@ -2304,6 +2419,7 @@ static int32_t frame_barrier(const dtx_springs_plan *p, worker *w, const double 
         }
         if (!(oriented_area(x0, st, m, NULL) > 0.0)) {
             skipped++;
+            w->on[t] = 2;
             continue;
         }
         w->on[t] = 1;
@@ -2311,10 +2427,33 @@ static int32_t frame_barrier(const dtx_springs_plan *p, worker *w, const double 
     return skipped;
 }
 
-static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, const double *x0,
-                        double *y, dtx_springs_frame_info *info)
+/* The source's overall rotation Rs in frame xs (rest to frame). */
+static void source_rotation(const dtx_springs_plan *p, const double *xs, double *Rs)
 {
-    double Rs[9], cs[3], S[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, num = 0.0;
+    double cs[3], S[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0};
+    centroid_of(xs, p->nv_s, p->sused, cs);
+    for (int32_t v = 0; v < p->nv_s; v++) {
+        double a[3], b[3];
+        if (!p->sused[v])
+            continue;
+        sub3(p->Vs + 3 * (size_t)v, p->src_centroid_used, a);
+        sub3(xs + 3 * (size_t)v, cs, b);
+        add_outer(S, a, b);
+    }
+    rotation_fit(S, Rs);
+}
+
+static void place_frame(const dtx_springs_plan *p, const double *xs, const double *Rs, double *y,
+                        dtx_springs_frame_info *fi);
+
+/* One frame: xs (nv_s x 3) to y (nv_t x 3), or, with xsol (the carry of
+ * dtx_springs_apply), only the solution on the solve mesh into xsol
+ * (nv_s x 3; NaN for a failed frame), which the caller carries and
+ * places. */
+static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, const double *x0,
+                        double *xsol, double *y, dtx_springs_frame_info *info)
+{
+    double Rs[9], num = 0.0;
     const int pinned = p->npins > 0;
     newton_result nr;
     int coarse_it = 0;
@@ -2329,16 +2468,7 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
             goto nan;
 
     /* ---- The source's global rotation. ---- */
-    centroid_of(xs, p->nv_s, p->sused, cs);
-    for (int32_t v = 0; v < p->nv_s; v++) {
-        double a[3], b[3];
-        if (!p->sused[v])
-            continue;
-        sub3(p->Vs + 3 * (size_t)v, p->src_centroid_used, a);
-        sub3(xs + 3 * (size_t)v, cs, b);
-        add_outer(S, a, b);
-    }
-    rotation_fit(S, Rs);
+    source_rotation(p, xs, Rs);
 
     /* ---- The frame's rest lengths on every level. ---- */
     for (int l = 0; l < p->nlev; l++) {
@@ -2423,15 +2553,45 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
     }
 
     /* ---- To the target's vertices, placed. ---- */
+    if (xsol) {
+        memcpy(xsol, w->lw[0].x, (size_t)p->nv_s * 3 * sizeof *xsol);
+        if (info)
+            *info = fi;
+        return;
+    }
     if (p->proxy)
         carry_to_target(p, w->lw[0].x, y);
     else
         memcpy(y, w->lw[0].x, (size_t)p->nv_t * 3 * sizeof *y);
+    place_frame(p, xs, Rs, y, &fi);
+    if (info)
+        *info = fi;
+    return;
+
+nan:
+    if (xsol)
+        for (int64_t i = 0; i < 3 * (int64_t)p->nv_s; i++)
+            xsol[i] = NAN;
+    else
+        for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
+            y[i] = NAN;
+    fi.energy = fi.energy_start = fi.residual = fi.grad_norm = NAN;
+    fi.converged = 0;
+    if (info)
+        *info = fi;
+}
+
+/* Counts the inverted triangles of y (nv_t x 3, the solve's frame) into
+ * fi and places y (see springs.h). */
+static void place_frame(const dtx_springs_plan *p, const double *xs, const double *Rs, double *y,
+                        dtx_springs_frame_info *fi)
+{
+    const int pinned = p->npins > 0;
     {
         double cy[3], Q[9] = {1, 0, 0, 0, 1, 0, 0, 0, 1}, want[3], c[3];
         /* Inversions are counted in the solve's frame, where the source's
          * rotations (and the barrier's normals) are expressed. */
-        count_inverted(p, xs, y, Q, &fi);
+        count_inverted(p, xs, y, Q, fi);
         centroid_of(y, p->nv_t, p->tused, cy);
         /* The sp04 start has sp04's orientation, which Newton keeps (its
          * steps have no rotational part): no turn then. */
@@ -2471,17 +2631,6 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
                     y[3 * (size_t)t + k] += want[k] - c[k];
         }
     }
-    if (info)
-        *info = fi;
-    return;
-
-nan:
-    for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
-        y[i] = NAN;
-    fi.energy = fi.energy_start = fi.residual = fi.grad_norm = NAN;
-    fi.converged = 0;
-    if (info)
-        *info = fi;
 }
 
 dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double *Xs, double *Xt,
@@ -2491,9 +2640,7 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
                                         "the springs workspaces", err);
     if (st != DTX_OK)
         return st;
-    if (p->sp04 && nframes > 0) {
-        /* The starts of all the frames in one sp04 apply (whose results do
-         * not depend on how frames are split into calls or threads). */
+    if ((p->sp04 || p->carry) && nframes > 0) {
         if (nframes > p->starts_cap) {
             double *s = dtx_alloc((size_t)nframes, 3 * (size_t)p->nv_s * sizeof *s, 0);
             if (!s)
@@ -2502,6 +2649,10 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
             p->starts = s;
             p->starts_cap = nframes;
         }
+    }
+    if (p->sp04 && nframes > 0) {
+        /* The starts of all the frames in one sp04 apply (whose results do
+         * not depend on how frames are split into calls or threads). */
         st = dtx_sp04_apply(p->sp04, nframes, Xs, p->starts, NULL, err);
         if (st != DTX_OK)
             return st;
@@ -2509,12 +2660,43 @@ dtx_status dtx_springs_apply(dtx_springs_plan *p, int64_t nframes, const double 
 #pragma omp parallel for schedule(dynamic, 1)
     for (int64_t f = 0; f < nframes; f++) {
         int t = 0;
+        double *xf = p->starts ? p->starts + (size_t)f * 3 * p->nv_s : NULL;
 #ifdef _OPENMP
         t = omp_get_thread_num();
 #endif
+        /* With the carry, each solution overwrites its start. */
         solve_frame(p, dtx__worker(&p->workers, t), Xs + (size_t)f * 3 * p->nv_s,
-                    p->sp04 ? p->starts + (size_t)f * 3 * p->nv_s : NULL,
-                    Xt + (size_t)f * 3 * p->nv_t, info ? info + f : NULL);
+                    p->sp04 ? xf : NULL, p->carry ? xf : NULL, Xt + (size_t)f * 3 * p->nv_t,
+                    info ? info + f : NULL);
+    }
+    if (p->carry && nframes > 0) {
+        /* All the solutions to the target in one sp04 apply, then each
+         * frame placed. */
+        st = dtx_sp04_apply(p->carry, nframes, p->starts, Xt, NULL, err);
+        if (st != DTX_OK)
+            return st;
+#pragma omp parallel for schedule(dynamic, 1)
+        for (int64_t f = 0; f < nframes; f++) {
+            const double *xs = Xs + (size_t)f * 3 * p->nv_s;
+            double *y = Xt + (size_t)f * 3 * p->nv_t, Rs[9];
+            dtx_springs_frame_info fi;
+            int finite = 1;
+            for (int64_t i = 0; i < 3 * (int64_t)p->nv_t && finite; i++)
+                finite = isfinite(y[i]);
+            if (!finite) {
+                for (int64_t i = 0; i < 3 * (int64_t)p->nv_t; i++)
+                    y[i] = NAN;
+                continue;
+            }
+            if (info)
+                fi = info[f];
+            source_rotation(p, xs, Rs);
+            place_frame(p, xs, Rs, y, &fi);
+            if (info) {
+                info[f].inverted = fi.inverted;
+                info[f].first_inverted = fi.first_inverted;
+            }
+        }
     }
     return DTX_OK;
 }

@@ -112,7 +112,8 @@ typedef struct {
     int max_iter;            /* Newton iterations on the fine level at most [100] */
     double tol;              /* the fine level stops when a full Newton step moves
                                 no vertex by more than tol x the bounding-box
-                                diagonal [1e-8] */
+                                diagonal (or lowers the energy
+                                by less than 1e-10 of it) [1e-8] */
     int coarse_max_iter;     /* Newton iterations on each coarse level at most [50] */
     double coarse_tol;       /* as tol, on the coarse levels [1e-5] */
     dtx_springs_start start; /* [DTX_SPRINGS_START_SP04] */
@@ -163,8 +164,9 @@ typedef struct {
     double grad_norm;          /* Euclidean norm of the gradient of the fine level's
                                   energy (springs and barrier) at the result; NaN
                                   for a non-finite frame */
-    int32_t barrier_skipped;   /* solve-mesh triangles left out of the barrier
-                                  because the start has them inverted */
+    int32_t barrier_skipped;   /* solve-mesh triangles the start has inverted
+                                  (under the unfolding penalty, not the barrier,
+                                  until they are right side up) */
     int32_t inverted;          /* target triangles that are inverted (see
                                   dtx_springs_apply) */
     int32_t first_inverted;    /* the lowest of them, -1 if none */
@@ -233,7 +235,9 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * that the start has right side up (oriented area a_t = m_t . (x_b - x_a)
  * x (x_c - x_a) > 0, m_t its rest unit normal turned by its source
  * triangle's rotation, as inversions are counted) gets the term
- * sqrt(A_t) b(a_t / A_t), b the C2 barrier -(s - h)^2 log(s / h) below h =
+ * 0.1 sqrt(A_t) b(s / h), s = a_t / A_t, b(u) = (1 - u)^3 / u (C2, convex,
+ * growing like 1 / u so that compressed springs cannot squeeze a triangle
+ * to a near-zero area, where the Hessian would no longer factor) below h =
  * 0.1 min(1, the source triangle's area ratio), 0 above, +inf at s <= 0;
  * the line search, which accepts only decreases, therefore never folds
  * one.  The barrier is zero wherever a triangle keeps a tenth of the area
@@ -242,7 +246,13 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * orientation is the start's: Newton's steps have no rigid part (they
  * minimise the quadratic model under that constraint), and the result is
  * not turned (placement below).  Triangles the start already has folded
- * are left out of the barrier and reported (barrier_skipped).  Newton uses
+ * (reported: barrier_skipped) get an unfolding penalty instead, 10 sqrt(A_t)
+ * (1 - s / h)^2 below h (finite on both sides of 0, so Newton can turn
+ * them over), and join the barrier once s reaches h / 2.  Newton stops
+ * when a full step moves no vertex by more than tol x the diagonal, or
+ * lowers the energy by less than 1e-10 of it (the energy test of L-BFGS-B,
+ * whose default is 2.2e-9; where the minimum is degenerate the steps
+ * shrink only linearly while the energy no longer changes).  Newton uses
  * the Hessian with a share theta in [0, 1] of its indefinite part (the
  * compressed springs' and the barrier's): 0 (projected, positive definite)
  * far from the solution, doubled after each small full step up to the
@@ -266,8 +276,17 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * is t itself with the same connectivity, else the proxy (= source) triangle
  * nearest to t's centroid.  Triangles with a zero rest normal are not
  * counted.  They are counted in the solve's frame (before the placement's
- * turn).  With a proxy the target's triangles follow the proxy's through
- * the binding, so the barrier on the proxy does not cover them.
+ * turn).  With a proxy the solution is carried to the target by sp04 from
+ * the proxy onto the target, every target triangle paired with its driving
+ * triangle (one factorisation in the plan, one apply for all the frames of
+ * the call): each target triangle follows its proxy triangle's deformation
+ * gradient in the least-squares sense, so target triangles bound to proxy
+ * triangles that turn differently still meet without folding.  (A target
+ * of several connected components, which sp04 refuses, keeps the binding:
+ * each vertex at its closest point on the proxy plus its offset in that
+ * triangle's frame.)  The barrier on the proxy does not cover the target's
+ * triangles: dtx_springs_count_inverted counts them on any result (sp04's,
+ * say) for comparison.
  *
  * A frame with a non-finite source position gives NaN positions, a NaN
  * energy and residual, and affects no other frame.  Fails only with
@@ -276,5 +295,11 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * Not thread-safe on one plan. */
 dtx_status dtx_springs_apply(dtx_springs_plan *plan, int64_t nframes, const double *Xs, double *Xt,
                              dtx_springs_frame_info *info, dtx_error *err);
+
+/* The target triangles of y (nv_t x 3, any target frame in the solve's
+ * orientation, e.g. sp04's result for source frame xs) that count as
+ * inverted against source frame xs (nv_s x 3) by the test above: a
+ * reference for the counts in dtx_springs_frame_info.  Thread-safe. */
+int32_t dtx_springs_count_inverted(const dtx_springs_plan *plan, const double *xs, const double *y);
 
 #endif /* DTX_SPRINGS_H */

@@ -429,6 +429,18 @@ int main(int argc, char **argv)
         print_plan("proxy", pp);
         timed_runs("proxy", pp, &o, nf, Xs, X, fi, ds.tgt.nv);
         frame_figures(fi, nf);
+        {
+            /* The same count on sp04's own results (the reference). */
+            long inv = 0;
+            printf("    sp04's own results, inverted triangles per frame:");
+            for (int f = 0; f < nf; f++) {
+                int32_t c = dtx_springs_count_inverted(pp, Xs + (size_t)f * 3 * ds.src.nv,
+                                                       Yt + (size_t)f * 3 * ds.tgt.nv);
+                printf(" %d", (int)c);
+                inv += c;
+            }
+            printf(" (%ld in all)\n", inv);
+        }
         if (ds.results) {
             int np = nf < ds.nposes ? nf : ds.nposes;
             double sum_s = 0.0, sum_p = 0.0, worst_s = 0.0, worst_p = 0.0, sum_x = 0.0;

@@ -100,6 +100,9 @@ for t in fatcat self lion; do
 done
 if [ "$asan" = 0 ]; then
     check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
+    # The barrier keeps the fatcat's triangles right side up and the
+    # unfolding penalty turns over those the sp04 start has folded.
+    check "fatcat: no inverted triangle in any frame" awk '{ exit ($3 == 0 && $6 == 0 && $9 == 0) ? 0 : 1 }' <<< "$(stats $R/fatcat/cat-poses)"
 fi
 
 # The numbers, with h5py: self = the poses up to a translation; the lion
