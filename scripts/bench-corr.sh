@@ -24,11 +24,17 @@ run() {
         OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bench" corr "$data/$pair" "$@" | sed 1d
     done
 }
-run "defaults"
+run "defaults (weights per area)"
+run "0. weights per element (the defaults before)" weights=element
 run "1. closest points at target vertices only" closest_on=vertices
+run "1e. closest points at target vertices only, per element" closest_on=vertices weights=element
 run "2. no normal rule for closest points" closest_normals=0
-run "3a. defaults, weights per area" weights=area
-run "3b. paper's weights, [1, 500, 1000, 5000]" $paper $lin
-run "3c. paper's weights, [1, 500, 1000, 5000], per area" $paper $lin weights=area
-run "3d. paper's weights, four equal ratios" $paper $geo
-run "3e. paper's weights, four equal ratios, per area" $paper $geo weights=area
+run "2e. no normal rule for closest points, per element" closest_normals=0 weights=element
+run "3a. paper's weights, [1, 500, 1000, 5000], per element" $paper $lin weights=element
+run "3b. paper's weights, [1, 500, 1000, 5000], per area" $paper $lin
+run "3c. paper's weights, four equal ratios, per element" $paper $geo weights=element
+run "3d. paper's weights, four equal ratios, per area" $paper $geo
+echo "== resolution: the cat refined once by midpoint subdivision (same surface, 4x the triangles)"
+for w in element area; do
+    OMP_NUM_THREADS=${OMP_NUM_THREADS:-1} "$bench" corr "$data/sumner-cat-lion" subdivide=1 weights=$w | sed 1d
+done
