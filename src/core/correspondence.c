@@ -54,6 +54,9 @@ void dtx_corr_params_default(dtx_corr_params *p)
     p->max_distance = 0.1;
     p->max_angle_deg = 90.0;
     p->align = 1;
+    p->closest_on = DTX_CORR_ON_SURFACE;
+    p->closest_normals = 1;
+    p->weights = DTX_CORR_WEIGHTS_AREA;
 }
 
 void dtx_corr_free(dtx_corr *c)
@@ -248,6 +251,66 @@ static int normal_filter(const void *ctx, int32_t prim)
     return m[0] * c->n[0] + m[1] * c->n[1] + m[2] * c->n[2] > c->cosmax;
 }
 
+int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const double p[3],
+                           const double n[3], double cosmax, double max_dist, int normal_rule,
+                           int32_t hint, double cp[3])
+{
+    normal_filter_ctx ctx;
+    ctx.tnormals = tnormals;
+    ctx.n = n;
+    ctx.cosmax = cosmax;
+    /* The filter runs inside the search, so a rejected primitive never
+     * hides a farther valid one: the answer is the closest valid point,
+     * not the closest point if valid. */
+    return dtx_bvh_closest_from(tbvh, p, max_dist, normal_rule ? normal_filter : NULL, &ctx,
+                                hint, cp, NULL);
+}
+
+/* ------------------------------------------------------------------ */
+/* Per-area weights                                                    */
+/* ------------------------------------------------------------------ */
+
+/* The paper writes E_I as a sum over triangles and E_C as a sum over
+ * vertices, so refining a mesh (4x the elements) makes both 4x heavier
+ * against E_S, whose adjacent-transformation differences shrink with the
+ * edge length as the pairs multiply (a sum of squared differences over
+ * neighbours approximates an integral of the squared gradient of T whatever
+ * the spacing): the same weights mean a stiffer identity and a stronger
+ * pull at a finer resolution, and on a mesh of uneven density they favour
+ * its dense parts.  Weighing each triangle's E_I term by its area and each
+ * vertex's E_C term by its area (a third of its triangles') turns both sums
+ * into integrals over the surface, which do not depend on the resolution;
+ * times DTX_CORR_REF_DENSITY (in the normalised frame, the target's size
+ * 1), the weights keep the meaning the paper gave them on meshes of that
+ * density.  wtri (nf) and wvert (nv) get the factors; areas are the rest
+ * source's S0 (in the normalised frame). */
+static void area_weights(const double *S0, const int32_t *F, int32_t nv, int32_t nf,
+                         double *wtri, double *wvert)
+{
+    const double rho_v = DTX_CORR_REF_DENSITY;
+    /* A closed triangle mesh has about twice as many triangles as vertices,
+     * so at the reference density a triangle's mean area is 1 / (2 rho_v)
+     * and a vertex's 1 / rho_v. */
+    for (int32_t v = 0; v < nv; v++)
+        wvert[v] = 0.0;
+    for (int32_t f = 0; f < nf; f++) {
+        const double *a = S0 + 3 * (size_t)F[3 * f], *b = S0 + 3 * (size_t)F[3 * f + 1],
+                     *c = S0 + 3 * (size_t)F[3 * f + 2];
+        double e1[3], e2[3], n[3], area;
+        for (int k = 0; k < 3; k++) {
+            e1[k] = b[k] - a[k];
+            e2[k] = c[k] - a[k];
+        }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        area = 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        wtri[f] = area * 2.0 * rho_v;
+        for (int k = 0; k < 3; k++)
+            wvert[F[3 * f + k]] += area / 3.0 * rho_v;
+    }
+}
+
 /* ------------------------------------------------------------------ */
 /* The deformation phases                                              */
 /* ------------------------------------------------------------------ */
@@ -287,7 +350,7 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     cholmod_dense *B = NULL, *Xs = NULL;
     int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL;
     double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
-           *cp = NULL;
+           *cp = NULL, *wtri = NULL, *wvert = NULL;
     unsigned char *valid = NULL, *valid_prev = NULL;
     double wc_prev = -1.0;
     int64_t nadj;
@@ -306,6 +369,13 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
     if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit)
         goto nomem;
+    if (prm->weights == DTX_CORR_WEIGHTS_AREA) {
+        wtri = dtx_alloc((size_t)nf, sizeof *wtri, 0);
+        wvert = dtx_alloc((size_t)nv, sizeof *wvert, 0);
+        if (!wtri || !wvert)
+            goto nomem;
+        area_weights(S0, F, nv, nf, wtri, wvert);
+    }
     for (int32_t v = 0; v < nv; v++)
         hit[v] = -1;
 
@@ -382,7 +452,7 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
             term t;
             t.n = 0;
             triangle_term(F, nv, f, Vinv, &t, 1.0);
-            assemble_term(&as, &t, I3, prm->w_identity);
+            assemble_term(&as, &t, I3, prm->w_identity * (wtri ? wtri[f] : 1.0));
         }
         assemble_tets(&as, tets, ntetpairs, prm);
         /* Explicit zero diagonal entries for vertex unknowns, so the pattern
@@ -433,18 +503,15 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
             dtx_vertex_normals(X, nv, F, nf, vn);
 #pragma omp parallel for schedule(static)
             for (int32_t v = 0; v < nv; v++) {
-                normal_filter_ctx ctx;
                 int32_t t;
                 valid[v] = 0;
                 if (freeidx[v] < 0)
                     continue;
-                ctx.tnormals = tnormals;
-                ctx.n = vn + 3 * (size_t)v;
-                ctx.cosmax = cosmax;
                 /* The previous phase's closest triangle is the search's
                  * first bound: the same answer, found sooner. */
-                t = dtx_bvh_closest_from(tbvh, X + 3 * (size_t)v, prm->max_distance,
-                                         normal_filter, &ctx, hit[v], cp + 3 * (size_t)v, NULL);
+                t = dtx__closest_valid(tbvh, tnormals, X + 3 * (size_t)v, vn + 3 * (size_t)v,
+                                       cosmax, prm->max_distance, prm->closest_normals, hit[v],
+                                       cp + 3 * (size_t)v);
                 if (t >= 0) {
                     valid[v] = 1;
                     hit[v] = t;
@@ -452,11 +519,12 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
             }
             for (int32_t v = 0; v < nv; v++) {
                 int32_t fv = freeidx[v];
+                double w = wvert ? wc * wvert[v] : wc;
                 if (!valid[v])
                     continue;
-                Kx[diagpos[fv]] += wc;
+                Kx[diagpos[fv]] += w;
                 for (int c = 0; c < 3; c++)
-                    Bx[(size_t)c * nfree + fv] += wc * cp[3 * (size_t)v + c];
+                    Bx[(size_t)c * nfree + fv] += w * cp[3 * (size_t)v + c];
             }
         }
         /* The matrix is the base plus wc on the diagonal of the vertices
@@ -505,6 +573,8 @@ fail:
     free(valid);
     free(valid_prev);
     free(hit);
+    free(wtri);
+    free(wvert);
     free(adj);
     free(rhs_base);
     free(kx_base);
@@ -766,9 +836,9 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
                                dtx_corr *out, dtx_error *err)
 {
     dtx_status st;
-    double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL;
+    double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL, *vnormals = NULL;
     double center[3] = {0, 0, 0}, diag = 1.0;
-    dtx_bvh *tbvh = NULL;
+    dtx_bvh *tbvh = NULL, *vbvh = NULL;
     memset(out, 0, sizeof *out);
 
     st = dtx__corr_check(src, tgt, markers, prm, err);
@@ -790,6 +860,18 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
 
     dtx_face_normals(Tn, tgt->F, tgt->nf, tnormals);
     tbvh = dtx_bvh_build(Tn, tgt->F, tgt->nf);
+    if (tbvh && prm->closest_on == DTX_CORR_ON_VERTICES) {
+        /* Closest points among the target's vertices only (with vertex
+         * normals for the normal rule): what many implementations do, kept
+         * to measure what the projection onto the triangles gains. */
+        vnormals = dtx_alloc((size_t)tgt->nv, 3 * sizeof *vnormals, 0);
+        vbvh = dtx_bvh_build(Tn, NULL, tgt->nv);
+        if (!vnormals || !vbvh) {
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
+            goto fail;
+        }
+        dtx_vertex_normals(Tn, tgt->nv, tgt->F, tgt->nf, vnormals);
+    }
     if (!tbvh) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
         goto fail;
@@ -809,8 +891,8 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
             memcpy(fixpos + 3 * (size_t)m, Tn + 3 * (size_t)markers->tgt[m], 3 * sizeof *fixpos);
         }
         st = dtx__deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
-                              tbvh, tnormals, prm, X, NULL, &out->solves,
-                              &out->factorizations, err);
+                              vbvh ? vbvh : tbvh, vbvh ? vnormals : tnormals, prm, X, NULL,
+                              &out->solves, &out->factorizations, err);
         free(fixv);
         free(fixpos);
     }
@@ -838,9 +920,11 @@ fail:
     if (st != DTX_OK)
         dtx_corr_free(out);
     dtx_bvh_free(&tbvh);
+    dtx_bvh_free(&vbvh);
     free(S0);
     free(Tn);
     free(X);
     free(tnormals);
+    free(vnormals);
     return st;
 }

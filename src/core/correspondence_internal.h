@@ -37,6 +37,18 @@ dtx_status dtx__corr_normalise(const dtx_mesh *src, const dtx_mesh *tgt,
                                const dtx_markers *markers, int align, double *S0, double *Tn,
                                double center[3], double *diag, dtx_error *err);
 
+/* The closest valid point to p (a source vertex with unit normal n) on the
+ * primitives of tbvh (triangles: anywhere on them, or points), nearer than
+ * max_dist: with normal_rule, only on primitives whose normal (tnormals, 3
+ * per primitive) makes n . normal > cosmax (the paper's rule with cosmax =
+ * cos 90 degrees = 0: normals within 90 degrees); the nearest of those,
+ * however near a rejected one is.  hint: a primitive to start from (-1 for
+ * none; the answer does not depend on it).  Returns the primitive (-1 if
+ * none; ties to the lower index) and its point in cp.  Thread-safe. */
+int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const double p[3],
+                           const double n[3], double cosmax, double max_dist, int normal_rule,
+                           int32_t hint, double cp[3]);
+
 /* Deforms the mesh (F, nv, nf) with rest positions S0 toward the surface in
  * tbvh (triangles, with face normals tnormals): minimises w_S E_S + w_I E_I
  * + w_C E_C over the vertices and one fourth vertex per triangle, the nfix

@@ -326,9 +326,16 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
     if (!sbvh)
         goto nomem;
     memcpy(X, Tn, (size_t)tgt->nv * 3 * sizeof *X);
-    st = dtx__deform_mesh(tgt->F, tgt->nv, tgt->nf, Tn, fixv, fixpos, markers->n, tets, ntp,
-                          sbvh, snormals, prm, X, anchored, &out->solves,
-                          &out->factorizations, err);
+    {
+        /* Weights per element, whatever prm->weights says: weighing E_I and
+         * E_C by area would call for E_R's proximity pairs to be weighed
+         * too, which is not done (nor measured) yet. */
+        dtx_corr_params p = *prm;
+        p.weights = DTX_CORR_WEIGHTS_ELEMENT;
+        st = dtx__deform_mesh(tgt->F, tgt->nv, tgt->nf, Tn, fixv, fixpos, markers->n, tets, ntp,
+                              sbvh, snormals, &p, X, anchored, &out->solves,
+                              &out->factorizations, err);
+    }
     if (st != DTX_OK)
         goto fail;
     for (int32_t m = 0; m < markers->n; m++)

@@ -121,9 +121,28 @@ typedef struct {
                              target bounding-box diagonal */
     double max_angle_deg; /* normals must differ by less than this (paper: 90) */
     int align;            /* 1: similarity pre-alignment of the source on the markers */
+    int closest_on;       /* where closest points lie: DTX_CORR_ON_SURFACE (default:
+                             anywhere on the target's triangles) or
+                             DTX_CORR_ON_VERTICES (target vertices only) */
+    int closest_normals;  /* 1 (default): a closest point is valid only where the
+                             target's normal is within max_angle_deg of the source
+                             vertex's (the paper's rule); 0: any closest point */
+    int weights;          /* DTX_CORR_WEIGHTS_ELEMENT (default): w_I per triangle and
+                             w_C per vertex, as the paper writes the energy;
+                             DTX_CORR_WEIGHTS_AREA: each triangle's E_I and each
+                             vertex's E_C weighted by its share of the source's
+                             area at DTX_CORR_REF_DENSITY (see correspondence.c) */
 } dtx_corr_params;
 
-/* The paper's defaults. */
+enum { DTX_CORR_ON_SURFACE = 0, DTX_CORR_ON_VERTICES = 1 };
+enum { DTX_CORR_WEIGHTS_ELEMENT = 0, DTX_CORR_WEIGHTS_AREA = 1 };
+
+/* Vertices per unit area (the target's size, dtx_rms_extent, being 1) at
+ * which DTX_CORR_WEIGHTS_AREA weighs each term as the paper's per-element
+ * sums do; the density of the paper's own cat (README, sp04 as implemented). */
+#define DTX_CORR_REF_DENSITY 13500.0
+
+/* The defaults (the paper's rules; the weights differ, see correspondence.c). */
 void dtx_corr_params_default(dtx_corr_params *p);
 
 typedef struct {
@@ -164,7 +183,8 @@ void dtx_corr_free(dtx_corr *c);
  * barycenter; the other target triangles stay unpaired (orphans, counted
  * in unmatched_tgt).  out->deformed_tgt gets the deformed target,
  * deformed_src stays NULL; fit_rms is the RMS distance of the deformed
- * target to the source surface.  Same parameters as dtx_sp04_correspond;
+ * target to the source surface.  Same parameters as dtx_sp04_correspond,
+ * except that weights are always per element (prm->weights is ignored);
  * deterministic for any thread count. */
 dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
                              const dtx_markers *markers, const dtx_corr_params *params,

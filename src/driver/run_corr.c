@@ -22,6 +22,7 @@ static void corr_params_from_job(const dtx_job *job, dtx_corr_params *p)
         p->w_closest[i] = job->sp04.w_closest[i];
     p->max_distance = job->sp04.max_distance;
     p->max_angle_deg = job->sp04.max_angle_deg;
+    p->weights = job->sp04.weights;
 }
 
 /* Broadcast of a correspondence from root (the other ranks allocate). */

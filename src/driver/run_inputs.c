@@ -64,12 +64,12 @@ static dtx_status read_markers(const dtx_job_target *t, dtx_markers *mk, dtx_err
  * tag names the computation: change it when the same inputs give another
  * correspondence, so that caches and stores of the old one are not reused
  * (v2: geometry normalised by dtx_rms_extent, before by the bounding-box
- * diagonal). */
+ * diagonal; v3: E_I and E_C weighted by area by default). */
 static void corr_key(const dtx_mesh *src, const dtx_mesh *tgt, const dtx_markers *mk,
                      const char *params, char out[17])
 {
     uint64_t h = DTX_HASH_INIT, hs = dtx_mesh_hash(src), ht = dtx_mesh_hash(tgt);
-    static const char tag[] = "dtx-sp04-correspondence-v2";
+    static const char tag[] = "dtx-sp04-correspondence-v3";
     h = dtx_hash_bytes(h, tag, sizeof tag);
     h = dtx_hash_bytes(h, &hs, sizeof hs);
     h = dtx_hash_bytes(h, &ht, sizeof ht);

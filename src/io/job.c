@@ -628,6 +628,7 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
         memcpy(job->sp04.w_closest, d.w_closest, sizeof job->sp04.w_closest);
         job->sp04.max_distance = d.max_distance;
         job->sp04.max_angle_deg = d.max_angle_deg;
+        job->sp04.weights = d.weights;
     }
     if (sp) {
         if (cJSON_IsNumber(x = get(sp, "w_smooth")))
@@ -638,6 +639,10 @@ static dtx_status fill_job(fillctx *f, const cJSON *doc, dtx_job *job)
             job->sp04.max_distance = x->valuedouble;
         if (cJSON_IsNumber(x = get(sp, "max_angle_deg")))
             job->sp04.max_angle_deg = x->valuedouble;
+        if (cJSON_IsString(x = get(sp, "weights")))
+            job->sp04.weights = strcmp(x->valuestring, "element") == 0
+                                    ? DTX_CORR_WEIGHTS_ELEMENT
+                                    : DTX_CORR_WEIGHTS_AREA;
         if (cJSON_IsArray(x = get(sp, "w_closest"))) {
             const cJSON *w;
             job->sp04.n_closest = 0;
@@ -1199,8 +1204,9 @@ char *dtx_job_params_json(const dtx_job *job)
                   p->max_angle_deg, p->max_distance);
         for (i = 0; i < p->n_closest && i < 16; i++)
             sb_printf(&b, "%s%.17g", i ? "," : "", p->w_closest[i]);
-        sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g}", p->w_identity,
-                  p->w_smooth);
+        sb_printf(&b, "],\"w_identity\":%.17g,\"w_smooth\":%.17g,\"weights\":\"%s\"}",
+                  p->w_identity, p->w_smooth,
+                  p->weights == DTX_CORR_WEIGHTS_ELEMENT ? "element" : "area");
         if (job->method == DTX_METHOD_SPRINGS) {
             sb_printf(&b, ",\"springs\":");
             write_settings(&b, job);

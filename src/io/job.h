@@ -80,6 +80,8 @@ typedef struct {
     double max_distance;   /* [0.1] closest-point / pairing threshold, as a
                               fraction of the target bounding-box diagonal */
     double max_angle_deg;  /* [90] normals must differ by less than this */
+    int weights;           /* ["area"] DTX_CORR_WEIGHTS_AREA or _ELEMENT ("element"):
+                              see dtx_corr_params */
 } dtx_sp04_params;
 
 /* Where the biharmonic method's key points come from. */

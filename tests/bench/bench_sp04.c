@@ -6,6 +6,18 @@
  *       time per frame (current OMP_NUM_THREADS) and, on the same factor, a
  *       bare CHOLMOD back-substitution per frame with 3 right-hand sides per
  *       call and with a whole group's (3 x DTX_SP04_SOLVE_GROUP) per call.
+ *   dtx_bench corr DATA_DIR [OPTION=VALUE ...]
+ *       the sp04 correspondence alone with the default parameters changed
+ *       by the options (w_smooth=, w_identity=, w_closest=A,B,C,...,
+ *       max_distance=, max_angle_deg=, closest_on=surface|vertices,
+ *       closest_normals=0|1, weights=element|area), the source (and its
+ *       poses) first refined by subdivide=N levels of midpoint subdivision
+ *       (the same surface at 4^N times the triangles): its time, pairs and fit;
+ *       with paper-results/ in DATA_DIR, the transfer of every pose against
+ *       the paper's (core.cat_lion_accuracy's measure: RMS per pose after
+ *       removing the mean translation, over the target's bounding-box
+ *       diagonal); also the source's area and density in the normalised
+ *       frame (the reference of weights=area).
  *   dtx_bench make-sequence DATA_DIR OUT.h5 NFRAMES [--gzip]
  *   dtx_bench spin
  *       a fixed amount of pure arithmetic over OMP_NUM_THREADS threads: at 1
@@ -20,9 +32,12 @@
  * the bundled sumner-cat-lion and sumner-horse-camel sets do.
  */
 #include "bench_data.h"
+#include "correspondence_internal.h"
 #include "dtx_core.h"
+#include "generate.h"
 #include "h5layout.h"
 
+#include <math.h>
 #include <omp.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -159,6 +174,195 @@ static int bench_sp04(const bench_dataset *ds, int64_t n)
     return 0;
 }
 
+/* One OPTION=VALUE of `dtx_bench corr`; 0 when it is not one. */
+static int corr_option(const char *arg, dtx_corr_params *p, int *subdivide)
+{
+    const char *eq = strchr(arg, '=');
+    const char *v = eq ? eq + 1 : NULL;
+    size_t n = eq ? (size_t)(eq - arg) : 0;
+    char *end;
+    if (!v)
+        return 0;
+#define KEY(k) (n == strlen(k) && strncmp(arg, k, n) == 0)
+    if (KEY("subdivide"))
+        *subdivide = (int)strtol(v, &end, 10);
+    else if (KEY("w_smooth"))
+        p->w_smooth = strtod(v, &end);
+    else if (KEY("w_identity"))
+        p->w_identity = strtod(v, &end);
+    else if (KEY("max_distance"))
+        p->max_distance = strtod(v, &end);
+    else if (KEY("max_angle_deg"))
+        p->max_angle_deg = strtod(v, &end);
+    else if (KEY("closest_normals"))
+        p->closest_normals = (int)strtol(v, &end, 10);
+    else if (KEY("closest_on") && (!strcmp(v, "surface") || !strcmp(v, "vertices"))) {
+        p->closest_on = !strcmp(v, "surface") ? DTX_CORR_ON_SURFACE : DTX_CORR_ON_VERTICES;
+        end = (char *)v + strlen(v);
+    } else if (KEY("weights") && (!strcmp(v, "element") || !strcmp(v, "area"))) {
+        p->weights = !strcmp(v, "element") ? DTX_CORR_WEIGHTS_ELEMENT : DTX_CORR_WEIGHTS_AREA;
+        end = (char *)v + strlen(v);
+    } else if (KEY("w_closest")) {
+        p->n_closest = 0;
+        end = (char *)v;
+        do {
+            if (p->n_closest == 16)
+                return 0;
+            p->w_closest[p->n_closest++] = strtod(end + (*end == ','), &end);
+        } while (*end == ',');
+    } else
+        return 0;
+#undef KEY
+    return end != v && *end == '\0';
+}
+
+/* The source of ds and its poses refined by `levels` of midpoint
+ * subdivision (same surface, same markers: the old vertices keep their
+ * indices). */
+static void subdivide_source(bench_dataset *ds, int levels)
+{
+    dtx_mesh fine;
+    dtx_error e;
+    int32_t *map = NULL;
+    double *poses;
+    if (levels < 1 || levels > 3) {
+        fprintf(stderr, "dtx_bench: corr: subdivide must be 1, 2 or 3\n");
+        exit(2);
+    }
+    if (dtx_gen_subdivide(&ds->src, levels, &fine, &map, &e) != DTX_OK)
+        bench_die(&e);
+    free(map);
+    poses = bench_xmalloc((size_t)ds->nposes, 3 * (size_t)fine.nv * sizeof *poses);
+    for (int k = 0; k < ds->nposes; k++) {
+        dtx_mesh p = ds->src, out;
+        p.V = ds->poses + (size_t)k * 3 * ds->src.nv;
+        if (dtx_gen_subdivide(&p, levels, &out, &map, &e) != DTX_OK)
+            bench_die(&e);
+        free(map);
+        memcpy(poses + (size_t)k * 3 * fine.nv, out.V, 3 * (size_t)fine.nv * sizeof *poses);
+        dtx_mesh_free(&out);
+    }
+    free(ds->poses);
+    ds->poses = poses;
+    dtx_mesh_free(&ds->src);
+    ds->src = fine;
+}
+
+static int bench_corr(bench_dataset *ds, int nopt, char **opt)
+{
+    dtx_corr_params prm;
+    dtx_corr corr;
+    dtx_error e;
+    double t0, tc, area = 0.0, *S0, *Tn, center[3], size;
+    int subdivide = 0;
+    dtx_corr coarse;
+
+    memset(&coarse, 0, sizeof coarse);
+    dtx_corr_params_default(&prm);
+    for (int i = 0; i < nopt; i++)
+        if (!corr_option(opt[i], &prm, &subdivide)) {
+            fprintf(stderr, "dtx_bench: corr: bad option '%s'\n", opt[i]);
+            return 2;
+        }
+    if (subdivide > 0) {
+        /* The unrefined source's correspondence, to compare the deformed
+         * positions of the vertices both have. */
+        if (dtx_sp04_correspond(&ds->src, &ds->tgt, &ds->mk, &prm, &coarse, &e) != DTX_OK)
+            bench_die(&e);
+        subdivide_source(ds, subdivide);
+    }
+    printf("%s -> %s, %d thread(s): w_smooth %g, w_identity %g, w_closest [", ds->src_name,
+           ds->tgt_name, omp_get_max_threads(), prm.w_smooth, prm.w_identity);
+    for (int i = 0; i < prm.n_closest; i++)
+        printf("%s%g", i ? ", " : "", prm.w_closest[i]);
+    printf("], closest on %s, normal rule %s, weights per %s\n",
+           prm.closest_on == DTX_CORR_ON_SURFACE ? "surface" : "vertices",
+           prm.closest_normals ? "on" : "off",
+           prm.weights == DTX_CORR_WEIGHTS_AREA ? "area" : "element");
+
+    /* The source's area in the normalised frame (the correspondence's). */
+    S0 = bench_xmalloc((size_t)ds->src.nv, 3 * sizeof *S0);
+    Tn = bench_xmalloc((size_t)ds->tgt.nv, 3 * sizeof *Tn);
+    if (dtx__corr_normalise(&ds->src, &ds->tgt, &ds->mk, prm.align, S0, Tn, center, &size,
+                            &e) != DTX_OK)
+        bench_die(&e);
+    for (int32_t f = 0; f < ds->src.nf; f++) {
+        const int32_t *t = ds->src.F + 3 * (size_t)f;
+        const double *a = S0 + 3 * (size_t)t[0], *b = S0 + 3 * (size_t)t[1],
+                     *c = S0 + 3 * (size_t)t[2];
+        double u[3], w[3];
+        for (int k = 0; k < 3; k++) {
+            u[k] = b[k] - a[k];
+            w[k] = c[k] - a[k];
+        }
+        area += 0.5 * sqrt((u[1] * w[2] - u[2] * w[1]) * (u[1] * w[2] - u[2] * w[1]) +
+                           (u[2] * w[0] - u[0] * w[2]) * (u[2] * w[0] - u[0] * w[2]) +
+                           (u[0] * w[1] - u[1] * w[0]) * (u[0] * w[1] - u[1] * w[0]));
+    }
+    printf("  source %d vertices, %d triangles, area %.4f in the normalised frame: %.0f "
+           "vertices per unit area (reference %.0f)\n",
+           (int)ds->src.nv, (int)ds->src.nf, area, ds->src.nv / area, DTX_CORR_REF_DENSITY);
+    free(S0);
+    free(Tn);
+
+    t0 = omp_get_wtime();
+    if (dtx_sp04_correspond(&ds->src, &ds->tgt, &ds->mk, &prm, &corr, &e) != DTX_OK)
+        bench_die(&e);
+    tc = omp_get_wtime() - t0;
+    printf("  correspondence %.3f s (%d solves, %d factorisations), %lld pairs, %d target "
+           "triangles by fallback, fit RMS %.3g of the size\n",
+           tc, corr.solves, corr.factorizations, (long long)corr.npairs, (int)corr.unmatched_tgt,
+           corr.fit_rms);
+    if (coarse.deformed_src) {
+        double s2 = 0.0, d = dtx_rms_extent(ds->tgt.V, ds->tgt.nv);
+        for (int32_t i = 0; i < 3 * coarse.nv_src; i++) {
+            double x = corr.deformed_src[i] - coarse.deformed_src[i];
+            s2 += x * x;
+        }
+        printf("  deformed source, refined vs unrefined at the %d unrefined vertices: RMS "
+               "distance %.3g of the size\n",
+               (int)coarse.nv_src, sqrt(s2 / coarse.nv_src) / d);
+        dtx_corr_free(&coarse);
+    }
+    if (ds->results) {
+        const size_t fs = 3 * (size_t)ds->src.nv, ft = 3 * (size_t)ds->tgt.nv;
+        double *Xt = bench_xmalloc((size_t)ds->nposes, ft * sizeof *Xt);
+        double *res = bench_xmalloc((size_t)ds->nposes, sizeof *res);
+        double diag = dtx_bbox_diagonal(ds->tgt.V, ds->tgt.nv), sum = 0.0, worst = 0.0;
+        dtx_sp04_plan *plan;
+        (void)fs;
+        if (dtx_sp04_plan_create(&ds->src, &ds->tgt, corr.pairs, corr.npairs, DTX_ANCHOR_FIXED,
+                                 NULL, NULL, 0, &plan, &e) != DTX_OK ||
+            dtx_sp04_apply(plan, ds->nposes, ds->poses, Xt, res, &e) != DTX_OK)
+            bench_die(&e);
+        printf("  RMS / diagonal against the paper's results, per pose:");
+        for (int k = 0; k < ds->nposes; k++) {
+            const double *x = Xt + (size_t)k * ft, *y = ds->results + (size_t)k * ft;
+            double ma[3] = {0, 0, 0}, mb[3] = {0, 0, 0}, s2 = 0.0, r;
+            for (int32_t v = 0; v < ds->tgt.nv; v++)
+                for (int j = 0; j < 3; j++) {
+                    ma[j] += x[3 * v + j] / ds->tgt.nv;
+                    mb[j] += y[3 * v + j] / ds->tgt.nv;
+                }
+            for (int32_t v = 0; v < ds->tgt.nv; v++)
+                for (int j = 0; j < 3; j++) {
+                    double d = (x[3 * v + j] - ma[j]) - (y[3 * v + j] - mb[j]);
+                    s2 += d * d;
+                }
+            r = 100.0 * sqrt(s2 / ds->tgt.nv) / diag;
+            sum += r;
+            worst = r > worst ? r : worst;
+            printf(" %.3f%%", r);
+        }
+        printf("\n  mean %.3f%%, worst %.3f%%\n", sum / ds->nposes, worst);
+        dtx_sp04_plan_free(&plan);
+        free(Xt);
+        free(res);
+    }
+    dtx_corr_free(&corr);
+    return 0;
+}
+
 /* What the cores deliver: a fixed amount of pure arithmetic (no memory
  * traffic) split over the OpenMP threads; seconds of wall time.  Run at 1
  * and 2 threads, the ratio is the machine's own speed-up, the ceiling for
@@ -195,6 +399,10 @@ int main(int argc, char **argv)
         }
         bench_load_dataset(argv[2], &ds);
         rc = bench_sp04(&ds, n);
+    } else if (argc >= 3 && strcmp(argv[1], "corr") == 0) {
+        bench_load_dataset(argv[2], &ds);
+        bench_load_paper_results(argv[2], &ds);
+        rc = bench_corr(&ds, argc - 3, argv + 3);
     } else if (argc >= 5 && strcmp(argv[1], "make-sequence") == 0) {
         int64_t n = atoll(argv[4]);
         int gzip = argc > 5 && strcmp(argv[5], "--gzip") == 0;
@@ -206,6 +414,7 @@ int main(int argc, char **argv)
         rc = make_sequence(&ds, argv[3], n, gzip);
     } else {
         fprintf(stderr, "usage: dtx_bench sp04 DATA_DIR [NFRAMES]\n"
+                        "       dtx_bench corr DATA_DIR [OPTION=VALUE ...]\n"
                         "       dtx_bench spin\n"
                         "       dtx_bench make-sequence DATA_DIR OUT.h5 N [--gzip]\n");
         return 2;

@@ -30,6 +30,8 @@
  *   --levels L             coarse levels of the multigrid runs [springs default]
  *   --amount A             the target deformation of the same run [0.15]
  *   --no-internal          no internal springs
+ *   --corr-weights W       the sp04 correspondence's weights, area or element
+ *                          [its default]
  * The machine is shared: compare CPU seconds, or runs made one after the
  * other.
  */
@@ -50,6 +52,7 @@ typedef struct {
     int starts; /* bit 0: linear, bit 1: rest */
     double amount;
     int nthreads, threads[MAX_THREAD_RUNS];
+    int corr_weights; /* the sp04 correspondence's weights; -1: its default */
 } options;
 
 /* RMS distance of a and b (n x 3) after removing the mean offset. */
@@ -201,7 +204,8 @@ static void usage(void)
                     "[--threads 1,2] [--levels L] [--amount A] [--no-internal]\n"
                     "                         [--start linear|rest|both|sp04|all] [--max-iter N] "
                     "[--barrier 0|1]\n"
-                    "                         [--proxy-start sp04|linear|both]\n");
+                    "                         [--proxy-start sp04|linear|both] "
+                    "[--corr-weights area|element]\n");
     exit(2);
 }
 
@@ -218,6 +222,7 @@ static void parse(int argc, char **argv, options *o)
     o->proxy_starts = 3;
     o->nthreads = 1;
     o->threads[0] = 1;
+    o->corr_weights = -1;
     for (int i = 2; i < argc; i++) {
         const char *a = argv[i], *v = i + 1 < argc ? argv[i + 1] : NULL;
         if (strcmp(a, "--no-internal") == 0) {
@@ -247,6 +252,12 @@ static void parse(int argc, char **argv, options *o)
                               : strcmp(v, "both") == 0   ? 3
                                                          : 0;
             if (!o->proxy_starts)
+                usage();
+        } else if (strcmp(a, "--corr-weights") == 0) {
+            o->corr_weights = strcmp(v, "area") == 0      ? DTX_CORR_WEIGHTS_AREA
+                              : strcmp(v, "element") == 0 ? DTX_CORR_WEIGHTS_ELEMENT
+                                                          : -1;
+            if (o->corr_weights < 0)
                 usage();
         } else if (strcmp(a, "--max-iter") == 0)
             o->max_iter = atoi(v);
@@ -313,6 +324,8 @@ int main(int argc, char **argv)
 
     /* sp04 (needed by both runs). */
     dtx_corr_params_default(&cp);
+    if (o.corr_weights >= 0)
+        cp.weights = o.corr_weights;
     t0 = omp_get_wtime();
     if (dtx_sp04_correspond(&ds.src, &ds.tgt, &ds.mk, &cp, &corr, &e) != DTX_OK)
         bench_die(&e);

@@ -142,7 +142,7 @@ if plain_pass; then
 # ---- 2. the same content, spelled differently -------------------------------
 job s3 '"csv": "'"$D"'/markers.csv", "index_base": 0' \
     '"w_identity": 0.001, "w_smooth": 1.0, "max_distance": 0.1, "max_angle_deg": 90,
-     "w_closest": [1, 100, 5000, 5000, 5000, 5000]'
+     "w_closest": [1, 100, 5000, 5000, 5000, 5000], "weights": "area"'
 step s3 1
 check "s3 (markers from the CSV file, default parameters written out): both reused" \
     says s3 "catself=reused,lion=reused"

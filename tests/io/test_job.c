@@ -169,6 +169,9 @@ static void test_schema_defaults(void)
     CHECK(cJSON_IsNumber(d) && d->valuedouble == job.sp04.max_distance);
     d = DEFAULT_OF(sp, "max_angle_deg");
     CHECK(cJSON_IsNumber(d) && d->valuedouble == job.sp04.max_angle_deg);
+    d = DEFAULT_OF(sp, "weights");
+    CHECK(cJSON_IsString(d) && strcmp(d->valuestring, "area") == 0 &&
+          job.sp04.weights == DTX_CORR_WEIGHTS_AREA);
     d = DEFAULT_OF(sp, "w_closest");
     CHECK(cJSON_IsArray(d));
     CHECK_EQ_INT(cJSON_GetArraySize(d), job.sp04.n_closest);
@@ -216,7 +219,7 @@ static void test_full_job(void)
         "             \"export_obj_dir\": \"objs\", \"block_frames\": 16},\n"
         "  \"correspondence_store\": \"../store\",\n"
         "  \"sp04\": {\"w_smooth\": 2.5, \"w_identity\": 0.5, \"w_closest\": [3, 4],\n"
-        "           \"max_distance\": 0.25, \"max_angle_deg\": 180}\n"
+        "           \"max_distance\": 0.25, \"max_angle_deg\": 180, \"weights\": \"element\"}\n"
         "}\n";
     dtx_job job;
     dtx_error err_, *err = &err_;
@@ -270,6 +273,7 @@ static void test_full_job(void)
     CHECK(job.sp04.w_closest[0] == 3.0 && job.sp04.w_closest[1] == 4.0);
     CHECK(job.sp04.max_distance == 0.25);
     CHECK(job.sp04.max_angle_deg == 180.0);
+    CHECK_EQ_INT(job.sp04.weights, DTX_CORR_WEIGHTS_ELEMENT);
     dtx_job_free(&job);
     /* dtx_job_free zeroes, so a second call is harmless. */
     CHECK(job.text == NULL && job.targets == NULL && job.ntargets == 0);
@@ -838,7 +842,8 @@ static void test_params_json(void)
         CHECK(strcmp(p, "{\"method\":\"sp04\",\"sp04\":{\"max_angle_deg\":90,"
                         "\"max_distance\":0.10000000000000001,"
                         "\"w_closest\":[1,100,5000,5000,5000,5000],"
-                        "\"w_identity\":0.29999999999999999,\"w_smooth\":1}}") == 0);
+                        "\"w_identity\":0.29999999999999999,\"w_smooth\":1,"
+                        "\"weights\":\"area\"}}") == 0);
     /* It is JSON, and the numbers read back exactly. */
     parsed = p ? cJSON_Parse(p) : NULL;
     CHECK(parsed != NULL);
@@ -853,7 +858,8 @@ static void test_params_json(void)
     /* The same parameters written differently give the same text. */
     CHECK_OK(parse(job_text(NULL, NULL, NULL,
                             ",\"sp04\":{\"w_closest\":[1,1e2,5000,5e3,5000.0,5000],"
-                            "\"max_distance\":0.1,\"w_smooth\":1.0,\"w_identity\":0.3}"),
+                            "\"max_distance\":0.1,\"w_smooth\":1.0,\"w_identity\":0.3,"
+                            "\"weights\":\"area\"}"),
                    "/data", 0, &job, err),
              err);
     q = dtx_job_params_json(&job);
@@ -866,6 +872,13 @@ static void test_params_json(void)
              err);
     q = dtx_job_params_json(&job);
     CHECK(p && q && strcmp(p, q) != 0);
+    free(q);
+    dtx_job_free(&job);
+    CHECK_OK(parse(job_text(NULL, NULL, NULL, ",\"sp04\":{\"weights\":\"element\"}"), "/data", 0,
+                   &job, err),
+             err);
+    q = dtx_job_params_json(&job);
+    CHECK(p && q && strcmp(p, q) != 0 && strstr(q, "\"weights\":\"element\"") != NULL);
     free(q);
     free(p);
     dtx_job_free(&job);

@@ -1,0 +1,263 @@
+/*
+ * test_correspondence_geom.c: the geometric pieces of the sp04
+ * correspondence's closest-point term (correspondence.c, bvh.c).
+ *  - dtx_closest_point_triangle: each of the seven Voronoi regions of a
+ *    triangle against a hand-computed answer, and on random triangles and
+ *    points the answer is in the triangle and no farther than any point of
+ *    a fine barycentric grid over it;
+ *  - closest points on the surface: above a triangle's interior the
+ *    closest valid point is the foot of the perpendicular, not a vertex
+ *    (which a point tree over the vertices gives);
+ *  - the normal rule: a nearer triangle facing away (normals more than 90
+ *    degrees apart) is skipped for the next-closest valid one, at 89
+ *    degrees it is taken, and without the rule the nearest wins; nothing
+ *    beyond max_dist;
+ *  - per-area weights: a source refined by midpoint subdivision (the same
+ *    surface at 4x the triangles) deforms onto the target much as the
+ *    unrefined one does with weights per area, and measurably less so with
+ *    weights per element (the paper's sums), whose E_I and E_C grow 4x
+ *    against E_S; and the result with weights per area is the same, bit
+ *    for bit, at 1 and 2 threads.
+ */
+#include "check.h"
+#include "correspondence_internal.h"
+#include "dtx_core.h"
+#include "generate.h"
+
+#include <math.h>
+#include <omp.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define PI 3.14159265358979323846
+
+static void test_triangle_regions(void)
+{
+    static const double a[3] = {0, 0, 0}, b[3] = {1, 0, 0}, c[3] = {0, 1, 0};
+    static const struct {
+        double p[3], q[3], d2;
+    } cases[] = {
+        {{0.2, 0.3, 0.5}, {0.2, 0.3, 0}, 0.25},  /* face */
+        {{-1, -1, 2}, {0, 0, 0}, 6.0},           /* vertex a */
+        {{2, -0.5, 0}, {1, 0, 0}, 1.25},         /* vertex b */
+        {{-0.5, 2, 1}, {0, 1, 0}, 2.25},         /* vertex c */
+        {{0.5, -1, 0}, {0.5, 0, 0}, 1.0},        /* edge ab */
+        {{-1, 0.5, 0}, {0, 0.5, 0}, 1.0},        /* edge ca */
+        {{1, 1, -1}, {0.5, 0.5, 0}, 1.5},        /* edge bc */
+    };
+    for (size_t i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        double q[3];
+        double d2 = dtx_closest_point_triangle(cases[i].p, a, b, c, q);
+        CHECK_NEAR(d2, cases[i].d2, 1e-15);
+        for (int k = 0; k < 3; k++)
+            CHECK_NEAR(q[k], cases[i].q[k], 1e-15);
+    }
+}
+
+static double rnd(uint64_t *s)
+{
+    *s = *s * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*s >> 11) / 9007199254740992.0 - 0.5;
+}
+
+static void test_triangle_random(void)
+{
+    uint64_t s = 2024;
+    int inside = 1, nearest = 1;
+    for (int it = 0; it < 200; it++) {
+        double t[3][3], p[3], q[3], d2, e1[3], e2[3], n[3], nn, dist;
+        for (int j = 0; j < 3; j++)
+            for (int k = 0; k < 3; k++)
+                t[j][k] = rnd(&s);
+        for (int k = 0; k < 3; k++)
+            p[k] = 2.0 * rnd(&s);
+        d2 = dtx_closest_point_triangle(p, t[0], t[1], t[2], q);
+        /* q in the triangle: in its plane, with barycentric coordinates >= 0. */
+        for (int k = 0; k < 3; k++) {
+            e1[k] = t[1][k] - t[0][k];
+            e2[k] = t[2][k] - t[0][k];
+        }
+        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
+        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
+        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
+        nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+        for (int j = 0; j < 3; j++) {
+            /* Twice the signed area of (q, t[j+1], t[j+2]) over the whole. */
+            const double *u = t[(j + 1) % 3], *v = t[(j + 2) % 3];
+            double x[3] = {u[0] - q[0], u[1] - q[1], u[2] - q[2]},
+                   y[3] = {v[0] - q[0], v[1] - q[1], v[2] - q[2]};
+            double w = ((x[1] * y[2] - x[2] * y[1]) * n[0] + (x[2] * y[0] - x[0] * y[2]) * n[1] +
+                        (x[0] * y[1] - x[1] * y[0]) * n[2]) /
+                       nn;
+            if (!(w >= -1e-12))
+                inside = 0;
+        }
+        dist = ((q[0] - t[0][0]) * n[0] + (q[1] - t[0][1]) * n[1] + (q[2] - t[0][2]) * n[2]) /
+               sqrt(nn);
+        if (!(fabs(dist) <= 1e-12))
+            inside = 0;
+        /* No grid point of the triangle is nearer. */
+        for (int i = 0; i <= 60; i++)
+            for (int j = 0; i + j <= 60; j++) {
+                double u = i / 60.0, v = j / 60.0, g2 = 0.0;
+                for (int k = 0; k < 3; k++) {
+                    double g = t[0][k] + u * e1[k] + v * e2[k] - p[k];
+                    g2 += g * g;
+                }
+                if (!(d2 <= g2 + 1e-14))
+                    nearest = 0;
+            }
+    }
+    CHECK(inside);
+    CHECK(nearest);
+}
+
+/* Closest points on the surface, and the normal rule.  Two parallel
+ * triangles: T0 in z = 0 facing -z, T1 in z = -1 facing +z (both cover
+ * x, y in [0, 2] x [0, 2] near the query). */
+static void test_closest_valid(void)
+{
+    static const double V[] = {0, 0, 0, 4, 0, 0, 0, 4, 0, 0, 0, -1, 4, 0, -1, 0, 4, -1};
+    static const int32_t F[] = {0, 2, 1, 3, 4, 5};
+    double N[6], cp[3];
+    const double p[3] = {0.5, 0.7, 0.4};
+    const double cosmax = cos(90.0 * PI / 180.0);
+    dtx_bvh *tri = dtx_bvh_build(V, F, 2), *pts = dtx_bvh_build(V, NULL, 6);
+    CHECK(tri != NULL && pts != NULL);
+    if (!tri || !pts)
+        return;
+    dtx_face_normals(V, F, 2, N);
+    CHECK_NEAR(N[2], -1.0, 1e-15);
+    CHECK_NEAR(N[5], 1.0, 1e-15);
+
+    /* Facing -z like T0: T0, at the foot of the perpendicular. */
+    {
+        const double n[3] = {0, 0, -1};
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n, cosmax, INFINITY, 1, -1, cp), 0);
+        CHECK(cp[0] == 0.5 && cp[1] == 0.7 && cp[2] == 0.0);
+    }
+    /* Facing +z: T0 (0.4 away) faces away, so T1 (1.4 away) is the closest
+     * valid point; without the rule, T0. */
+    {
+        const double n[3] = {0, 0, 1};
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n, cosmax, INFINITY, 1, -1, cp), 1);
+        CHECK(cp[0] == 0.5 && cp[1] == 0.7 && cp[2] == -1.0);
+        /* The answer does not depend on the hint, even a rejected one. */
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n, cosmax, INFINITY, 1, 0, cp), 1);
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n, cosmax, INFINITY, 0, -1, cp), 0);
+        CHECK(cp[2] == 0.0);
+        /* Nothing valid within 1.0. */
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n, cosmax, 1.0, 1, -1, cp), -1);
+    }
+    /* 89 degrees from T0's normal: valid; 91 degrees: not (T1 instead). */
+    {
+        double a = 89.0 * PI / 180.0;
+        double n89[3] = {sin(a), 0, -cos(a)}, n91[3] = {sin(a + 2 * PI / 180.0), 0,
+                                                      -cos(a + 2 * PI / 180.0)};
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n89, cosmax, INFINITY, 1, -1, cp), 0);
+        CHECK_EQ_INT(dtx__closest_valid(tri, N, p, n91, cosmax, INFINITY, 1, -1, cp), 1);
+    }
+    /* Among the vertices only (with their normals: T0's are -z), the
+     * nearest valid vertex is T0's corner at the origin, 0.95 away, not the
+     * surface point 0.4 away. */
+    {
+        const double n[3] = {0, 0, -1};
+        double VN[18];
+        for (int v = 0; v < 6; v++) {
+            VN[3 * v] = VN[3 * v + 1] = 0.0;
+            VN[3 * v + 2] = v < 3 ? -1.0 : 1.0;
+        }
+        CHECK_EQ_INT(dtx__closest_valid(pts, VN, p, n, cosmax, INFINITY, 1, -1, cp), 0);
+        CHECK(cp[0] == 0.0 && cp[1] == 0.0 && cp[2] == 0.0);
+    }
+    dtx_bvh_free(&tri);
+    dtx_bvh_free(&pts);
+}
+
+/* RMS distance (over the coarse vertices) between the deformed coarse
+ * source and the deformed refined source, with the given weights. */
+static double refinement_change(const dtx_mesh *coarse, const dtx_mesh *fine,
+                                const dtx_mesh *tgt, const dtx_markers *mk, int weights)
+{
+    dtx_corr_params prm;
+    dtx_corr a, b;
+    dtx_error err;
+    double s2 = 0.0;
+    dtx_corr_params_default(&prm);
+    prm.weights = weights;
+    CHECK_OK(dtx_sp04_correspond(coarse, tgt, mk, &prm, &a, &err), &err);
+    CHECK_OK(dtx_sp04_correspond(fine, tgt, mk, &prm, &b, &err), &err);
+    if (check_failed_)
+        return NAN;
+    for (int32_t i = 0; i < 3 * coarse->nv; i++)
+        s2 += (a.deformed_src[i] - b.deformed_src[i]) * (a.deformed_src[i] - b.deformed_src[i]);
+    dtx_corr_free(&a);
+    dtx_corr_free(&b);
+    return sqrt(s2 / coarse->nv) / dtx_rms_extent(tgt->V, tgt->nv);
+}
+
+/* Source: an icosphere (level 2) and the same sphere subdivided once more
+ * by midpoints (flat: the same surface); target: a level-3 icosphere
+ * stretched into an ellipsoid and bent.  Markers: the 12 icosahedron
+ * vertices, which keep their indices in every level. */
+static void test_area_weights(void)
+{
+    dtx_mesh coarse, fine, tgt;
+    dtx_markers mk;
+    dtx_error err;
+    int32_t *map = NULL;
+    double de, da;
+    CHECK_OK(dtx_gen_icosphere(2, &coarse, &err), &err);
+    CHECK_OK(dtx_gen_subdivide(&coarse, 1, &fine, &map, &err), &err);
+    free(map);
+    CHECK_OK(dtx_gen_icosphere(3, &tgt, &err), &err);
+    CHECK_OK(dtx_markers_alloc(&mk, 12, &err), &err);
+    if (check_failed_)
+        return;
+    for (int32_t v = 0; v < tgt.nv; v++) {
+        double *x = tgt.V + 3 * (size_t)v;
+        x[0] *= 1.4;
+        x[2] *= 0.7;
+        x[1] += 0.3 * x[0] * x[0];
+    }
+    for (int32_t m = 0; m < 12; m++)
+        mk.src[m] = mk.tgt[m] = m;
+    de = refinement_change(&coarse, &fine, &tgt, &mk, DTX_CORR_WEIGHTS_ELEMENT);
+    da = refinement_change(&coarse, &fine, &tgt, &mk, DTX_CORR_WEIGHTS_AREA);
+    printf("refining the source moves its deformed vertices by %.3g of the size with weights "
+           "per element, %.3g per area\n",
+           de, da);
+    CHECK_DBL(da, <, 0.5 * de);
+    {
+        dtx_corr a, b;
+        dtx_corr_params prm;
+        int nt = omp_get_max_threads();
+        dtx_corr_params_default(&prm);
+        CHECK_EQ_INT(prm.weights, DTX_CORR_WEIGHTS_AREA);
+        omp_set_num_threads(1);
+        CHECK_OK(dtx_sp04_correspond(&fine, &tgt, &mk, &prm, &a, &err), &err);
+        omp_set_num_threads(2);
+        CHECK_OK(dtx_sp04_correspond(&fine, &tgt, &mk, &prm, &b, &err), &err);
+        omp_set_num_threads(nt);
+        if (!check_failed_) {
+            CHECK(memcmp(a.deformed_src, b.deformed_src, sizeof(double) * 3 * fine.nv) == 0);
+            CHECK(a.npairs == b.npairs &&
+                  memcmp(a.pairs, b.pairs, sizeof(int32_t) * 2 * (size_t)a.npairs) == 0);
+            dtx_corr_free(&a);
+            dtx_corr_free(&b);
+        }
+    }
+    dtx_markers_free(&mk);
+    dtx_mesh_free(&coarse);
+    dtx_mesh_free(&fine);
+    dtx_mesh_free(&tgt);
+}
+
+int main(void)
+{
+    test_triangle_regions();
+    test_triangle_random();
+    test_closest_valid();
+    test_area_weights();
+    return check_report();
+}
