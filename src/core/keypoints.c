@@ -5,11 +5,10 @@
  * skinning mesh, the clustering features of the frames, the candidates);
  * a round fixes the set it starts from, its clustering and the fits'
  * starting rotations, which depend on the clustering and the frames only
- * (fast mode), and
- * evaluates every remaining candidate in parallel, each thread with its own
- * workspace allocated before the loop; the part's errors are combined by
- * the caller's reduce, and the smallest error wins (lowest candidate index
- * on ties).
+ * (fast mode), and evaluates every remaining candidate in parallel, each
+ * thread with its own workspace allocated before the loop; the part's
+ * errors are combined by the caller's reduce, and the smallest error wins
+ * (lowest candidate index on ties).
  */
 #include "keypoints.h"
 
