@@ -189,11 +189,12 @@ done:
     return st;
 }
 
-/* The programme of handle k (see the file comment).  Writes x, clamped
- * to [0, 1], into wk (nv). */
+/* The programme of handle k (see the file comment), its blocks ordered by
+ * order (solve_free).  Writes x, clamped to [0, 1], into wk (nv). */
 static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *order,
-                               const int32_t *handles, int32_t m, int32_t k, int max_iter, double tol_lambda, thread_ws *w,
-                               double *wk, int *iterations, int *converged)
+                               const int32_t *handles, int32_t m, int32_t k, int max_iter,
+                               double tol_lambda, thread_ws *w, double *wk, int *iterations,
+                               int *converged)
 {
     int it;
     dtx_status st;
