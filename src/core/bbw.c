@@ -122,7 +122,9 @@ static int ws_alloc(thread_ws *w, int32_t nv)
 }
 
 /* Solves for x on the FREE vertices with every other vertex held at its
- * current value.  Returns DTX_OK or an error in w->err. */
+ * current value, the block ordered by order (nv vertices, the mesh's
+ * fill-reducing ordering: mesh_order) restricted to them.  Returns DTX_OK
+ * or an error in w->err. */
 static dtx_status solve_free(const dtx_csr *Q, int32_t nv, const int32_t *order, thread_ws *w)
 {
     int32_t nfree = 0;
