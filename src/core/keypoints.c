@@ -3,11 +3,12 @@
  *
  * Structure: a context holds what does not depend on the key points (the
  * skinning mesh, the clustering features of the frames, the candidates);
- * a round fixes the set it starts from and its clustering (fast mode) and
- * evaluates every remaining candidate in parallel, each thread with its own
- * workspace allocated before the loop; the part's errors are combined by
- * the caller's reduce, and the smallest error wins (lowest candidate index
- * on ties).
+ * a round fixes the set it starts from, its clustering and the fits'
+ * starting rotations, which depend on the clustering and the frames only
+ * (fast mode), and evaluates every remaining candidate in parallel, each
+ * thread with its own workspace allocated before the loop; the part's
+ * errors are combined by the caller's reduce, and the smallest error wins
+ * (lowest candidate index on ties).
  */
 #include "keypoints.h"
 
@@ -53,6 +54,7 @@ typedef struct {
     double radius; /* R */
     dtx_skin_params skin;
     int exact;
+    double *R0;    /* nframes x mmax x 9: the round's starting rotations (fast mode) */
 } kp_ctx;
 
 /* Per-thread workspace for one evaluation with up to mmax key points. */
@@ -118,7 +120,7 @@ static double rest_radius(const dtx_mesh *m)
 /* The error of weights W (nv x m, rows summing to 1) with the clustering
  * labels (k clusters): fit every frame, skin, mean vertex distance / R. */
 static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, const int32_t *labels,
-                               int32_t k, kp_work *w, double *out, dtx_error *e)
+                               int32_t k, const double *R0, kp_work *w, double *out, dtx_error *e)
 {
     dtx_skin_params sp = c->skin;
     dtx_skin_fit *fit = NULL;
@@ -131,7 +133,7 @@ static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, cons
         return st;
     memset(&o, 0, sizeof o);
     o.T = w->T;
-    st = dtx_skin_fit_frames(fit, c->nframes, c->X, &sp, &o, e);
+    st = dtx_skin_fit_frames_from(fit, c->nframes, c->X, R0, &sp, &o, e);
     dtx_skin_fit_free(&fit);
     if (st != DTX_OK)
         return st;
@@ -167,7 +169,7 @@ static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m,
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
+        st = eval_weights(c, m, w->W, w->labels, m, NULL, w, out, e);
     return st;
 }
 
@@ -203,7 +205,7 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
+        st = eval_weights(c, m, w->W, w->labels, m, NULL, w, out, e);
     return st;
 }
 
@@ -242,7 +244,7 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             if (st == DTX_OK && dtx_bbw_clamp_normalise(w->W, c->nv, mm, NULL) < 0)
                 st = DTX_ESOLVE;
             if (st == DTX_OK)
-                st = eval_weights(c, mm, w->W, labels, k, w, &v, &e);
+                st = eval_weights(c, mm, w->W, labels, k, c->R0, w, &v, &e);
         }
         if (st != DTX_OK) {
             v = INFINITY;
@@ -270,9 +272,13 @@ static dtx_status round_labels(const kp_ctx *c, const dtx_bbw_incr *incr, int32_
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
+    dtx_status st;
     if (dtx_bbw_clamp_normalise(w->W, c->nv, m, NULL) < 0)
         return dtx_seterr(e, DTX_ESOLVE, "key points: weights of the current set sum to 0");
-    return cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e);
+    if ((st = cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e)) != DTX_OK)
+        return st;
+    /* Every candidate of the round starts its fits from these. */
+    return dtx_skin_start_rotations(c->sm, w->labels, k, c->nframes, c->X, c->R0, e);
 }
 
 static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error *err)
@@ -390,6 +396,11 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         goto fail;
     }
+    c.R0 = dtx_alloc((size_t)nframes * (size_t)mmax, 9 * sizeof *c.R0, 0);
+    if (!c.R0) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        goto fail;
+    }
     c.skin.threads = nthreads;
     if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
                                    err)) != DTX_OK ||
@@ -420,8 +431,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if (c.exact)
         st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error, err);
     else if ((st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) == DTX_OK)
-        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, &ws[0], &res->error,
-                          err);
+        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, c.R0, &ws[0],
+                          &res->error, err);
     if (st != DTX_OK)
         goto fail;
     res->error_first = res->error;
@@ -522,6 +533,7 @@ done:
     free(errs);
     free(inset);
     free(c.feat);
+    free(c.R0);
     dtx_skin_mesh_free(&c.sm);
     dtx_bbw_incr_free(&incr);
     return st;

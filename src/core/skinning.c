@@ -676,17 +676,13 @@ static void covariances(const dtx_skin_fit *fit, const double *T, double *C)
     }
 }
 
-static void fit_one_frame(const dtx_skin_fit *fit, const double *X, int max_iters, double tol,
-                          frame_ws *ws, double *Tout, double *energy, double *diff, int32_t *iters,
-                          double *Rout, double *trace)
+/* The frame X (nv x 3) centred on its centroid cf and scaled like the
+ * rest, into q (nv x 3); returns |q|^2. */
+static double centre_frame(const dtx_skin_mesh *mesh, const double *X, double *q, double cf[3])
 {
-    const dtx_skin_mesh *mesh = fit->mesh;
-    int32_t nv = mesh->nv, m = fit->m, n4 = fit->n4, ncl = fit->ncl;
-    double cf[3] = {0, 0, 0}, qq = 0.0, E, floor_, s2 = mesh->scale * mesh->scale;
-    double lam = fit->lambda;
-    int it = 0, nt = 0;
-
-    /* ---- the frame, centred on its centroid and scaled like the rest */
+    int32_t nv = mesh->nv;
+    double qq = 0.0;
+    cf[0] = cf[1] = cf[2] = 0.0;
     for (int32_t i = 0; i < nv; i++)
         for (int k = 0; k < 3; k++)
             cf[k] += X[3 * i + k];
@@ -695,9 +691,44 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, int max_iter
     for (int32_t i = 0; i < nv; i++)
         for (int k = 0; k < 3; k++) {
             double v = (X[3 * i + k] - cf[k]) / mesh->scale;
-            ws->q[3 * i + k] = v;
+            q[3 * i + k] = v;
             qq += v * v;
         }
+    return qq;
+}
+
+/* The starting rotations R (ncl x 9): each cluster's best rotation to the
+ * centred frame q itself; C (ncl x 9) is scratch. */
+static void start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels, int32_t ncl,
+                            const double *q, double *C, double *R)
+{
+    memset(C, 0, sizeof(double) * 9 * (size_t)ncl);
+    for (int32_t i = 0; i < mesh->nv; i++) {
+        double *c = C + 9 * (size_t)labels[i];
+        const double *qi = q + 3 * i;
+        for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++) {
+            const double *we = mesh->spoke_we + 3 * e, *qj = q + 3 * mesh->spoke_j[e];
+            double dq[3] = {qi[0] - qj[0], qi[1] - qj[1], qi[2] - qj[2]};
+            for (int a = 0; a < 3; a++)
+                for (int b = 0; b < 3; b++)
+                    c[3 * a + b] += we[a] * dq[b];
+        }
+    }
+    best_rotations(C, ncl, R);
+}
+
+static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double *R0,
+                          int max_iters, double tol, frame_ws *ws, double *Tout, double *energy,
+                          double *diff, int32_t *iters, double *Rout, double *trace)
+{
+    const dtx_skin_mesh *mesh = fit->mesh;
+    int32_t nv = mesh->nv, m = fit->m, n4 = fit->n4, ncl = fit->ncl;
+    double cf[3], qq, E, floor_, s2 = mesh->scale * mesh->scale;
+    double lam = fit->lambda;
+    int it = 0, nt = 0;
+
+    /* ---- the frame, centred on its centroid and scaled like the rest */
+    qq = centre_frame(mesh, X, ws->q, cf);
 
     /* ---- h = M^T q: block k (4 x 3) += W_ik [p_i; 1] q_i^T */
     memset(ws->h, 0, sizeof(double) * 3 * (size_t)n4);
@@ -716,20 +747,12 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, int max_iter
         }
     }
 
-    /* ---- starting rotations: the clusters' best fit to the frame itself */
-    memset(ws->C, 0, sizeof(double) * 9 * (size_t)ncl);
-    for (int32_t i = 0; i < nv; i++) {
-        double *c = ws->C + 9 * (size_t)fit->labels[i];
-        const double *qi = ws->q + 3 * i;
-        for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++) {
-            const double *we = mesh->spoke_we + 3 * e, *qj = ws->q + 3 * mesh->spoke_j[e];
-            double dq[3] = {qi[0] - qj[0], qi[1] - qj[1], qi[2] - qj[2]};
-            for (int a = 0; a < 3; a++)
-                for (int b = 0; b < 3; b++)
-                    c[3 * a + b] += we[a] * dq[b];
-        }
-    }
-    best_rotations(ws->C, ncl, ws->R);
+    /* ---- starting rotations: the clusters' best fit to the frame itself
+     * (given, or computed here alike) */
+    if (R0)
+        memcpy(ws->R, R0, sizeof(double) * 9 * (size_t)ncl);
+    else
+        start_rotations(mesh, fit->labels, ncl, ws->q, ws->C, ws->R);
 
     /* ---- first global step and the energy in full */
     arap_rhs(fit, ws->h, ws->R, ws->b);
@@ -812,8 +835,43 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, int max_iter
     }
 }
 
+dtx_status dtx_skin_start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels,
+                                    int32_t nclusters, int32_t nframes, const double *X,
+                                    double *R0, dtx_error *err)
+{
+    double *q, *C, cf[3];
+    if (!mesh || !labels || nclusters < 1 || nframes < 0 || (nframes > 0 && (!X || !R0)))
+        return dtx_seterr(err, DTX_EINVAL, "skinning fit: bad arguments");
+    for (int32_t i = 0; i < mesh->nv; i++)
+        if (labels[i] < 0 || labels[i] >= nclusters)
+            return dtx_seterr(err, DTX_ERANGE,
+                              "skinning fit: vertex %d has cluster label %d (clusters: %d)",
+                              (int)i, (int)labels[i], (int)nclusters);
+    q = dtx_alloc((size_t)mesh->nv, 3 * sizeof *q, 0);
+    C = dtx_alloc((size_t)nclusters, 9 * sizeof *C, 0);
+    if (!q || !C) {
+        free(q);
+        free(C);
+        return dtx_seterr(err, DTX_ENOMEM, "skinning fit: out of memory");
+    }
+    for (int32_t f = 0; f < nframes; f++) {
+        centre_frame(mesh, X + (size_t)f * mesh->nv * 3, q, cf);
+        start_rotations(mesh, labels, nclusters, q, C, R0 + (size_t)f * nclusters * 9);
+    }
+    free(q);
+    free(C);
+    return DTX_OK;
+}
+
 dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const double *X,
                                const dtx_skin_params *p, dtx_skin_out *out, dtx_error *err)
+{
+    return dtx_skin_fit_frames_from(fit, nframes, X, NULL, p, out, err);
+}
+
+dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, const double *X,
+                                    const double *R0, const dtx_skin_params *p, dtx_skin_out *out,
+                                    dtx_error *err)
 {
     frame_ws *ws = NULL;
     double *pool = NULL;
@@ -865,7 +923,8 @@ dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const d
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
     for (int32_t f = 0; f < nframes; f++) {
         frame_ws *w = ws + omp_get_thread_num();
-        fit_one_frame(fit, X + (size_t)f * nv * 3, max_iters, p->tol, w,
+        fit_one_frame(fit, X + (size_t)f * nv * 3, R0 ? R0 + (size_t)f * ncl * 9 : NULL,
+                      max_iters, p->tol, w,
                       out->T + (size_t)f * fit->m * 12, out->energy ? out->energy + f : NULL,
                       out->diff ? out->diff + f : NULL, out->iters ? out->iters + f : NULL,
                       out->R ? out->R + (size_t)f * ncl * 9 : NULL,

@@ -216,6 +216,26 @@ typedef struct {
 dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const double *X,
                                const dtx_skin_params *p, dtx_skin_out *out, dtx_error *err);
 
+/* The starting rotations of dtx_skin_fit_frames: for each frame of X
+ * (nframes x nv x 3), the best rotation of each of the nclusters clusters
+ * (labels: nv) to the frame itself, into R0 (nframes x nclusters x 9,
+ * caller-allocated).  They depend on the clustering and the frames only,
+ * not on the weights: a caller that fits many weight sets with one
+ * clustering (the key-point selection's round) computes them once and
+ * passes them to dtx_skin_fit_frames_from, which then gives the bits of
+ * dtx_skin_fit_frames.  O(nframes spokes), serial.  Errors: DTX_EINVAL,
+ * DTX_ERANGE (a label out of range), DTX_ENOMEM. */
+dtx_status dtx_skin_start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels,
+                                    int32_t nclusters, int32_t nframes, const double *X,
+                                    double *R0, dtx_error *err);
+
+/* dtx_skin_fit_frames with the starting rotations R0 (from
+ * dtx_skin_start_rotations with the fit's labels and nframes, X; NULL:
+ * computed here). */
+dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, const double *X,
+                                    const double *R0, const dtx_skin_params *p, dtx_skin_out *out,
+                                    dtx_error *err);
+
 /* E = lambda E_arap + E_diff (the fit's lambda) evaluated directly on the
  * mesh (O(nv m + spokes)) for one frame X (nv x 3), transforms T (m x 12)
  * and cluster rotations R (nclusters x 9): a check on the reduced-space
