@@ -25,6 +25,7 @@
 #include "cholmod_util.h"
 #include "correspondence_internal.h"
 #include "dtx_core.h"
+#include "vec3.h"
 
 #include <cholmod.h>
 #include <math.h>
@@ -294,17 +295,8 @@ static void area_weights(const double *S0, const int32_t *F, int32_t nv, int32_t
     for (int32_t v = 0; v < nv; v++)
         wvert[v] = 0.0;
     for (int32_t f = 0; f < nf; f++) {
-        const double *a = S0 + 3 * (size_t)F[3 * f], *b = S0 + 3 * (size_t)F[3 * f + 1],
-                     *c = S0 + 3 * (size_t)F[3 * f + 2];
-        double e1[3], e2[3], n[3], area;
-        for (int k = 0; k < 3; k++) {
-            e1[k] = b[k] - a[k];
-            e2[k] = c[k] - a[k];
-        }
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-        area = 0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
+        const double area = tri_area3(S0 + 3 * (size_t)F[3 * f], S0 + 3 * (size_t)F[3 * f + 1],
+                                      S0 + 3 * (size_t)F[3 * f + 2]);
         wtri[f] = area * 2.0 * rho_v;
         for (int k = 0; k < 3; k++)
             wvert[F[3 * f + k]] += area / 3.0 * rho_v;
@@ -400,20 +392,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
      * normal, though short, still carries the regularised gradient.) */
     eps_area = 1e-14; /* geometry is normalised to a unit target size */
     for (int32_t f = 0; f < nf; f++) {
-        const double *a = S0 + 3 * (size_t)F[3 * f], *b = S0 + 3 * (size_t)F[3 * f + 1],
-                     *c = S0 + 3 * (size_t)F[3 * f + 2];
-        double e1[3], e2[3], n[3];
-        for (int k = 0; k < 3; k++) {
-            e1[k] = b[k] - a[k];
-            e2[k] = c[k] - a[k];
-        }
-        n[0] = e1[1] * e2[2] - e1[2] * e2[1];
-        n[1] = e1[2] * e2[0] - e1[0] * e2[2];
-        n[2] = e1[0] * e2[1] - e1[1] * e2[0];
-        if (!(0.5 * sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]) > eps_area) &&
+        if (!(tri_area3(S0 + 3 * (size_t)F[3 * f], S0 + 3 * (size_t)F[3 * f + 1],
+                        S0 + 3 * (size_t)F[3 * f + 2]) > eps_area) &&
             freeidx[nv + f] == 0) {
             freeidx[nv + f] = -1;
-            memcpy(fixed + 3 * (size_t)(nv + f), a, 3 * sizeof(double));
+            memcpy(fixed + 3 * (size_t)(nv + f), S0 + 3 * (size_t)F[3 * f], 3 * sizeof(double));
         }
     }
     for (int32_t v = 0; v < nvar; v++)

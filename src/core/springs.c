@@ -1197,22 +1197,25 @@ static dtx_status build_barrier(dtx_springs_plan *p, const double *Vr, dtx_error
     return DTX_OK;
 }
 
-/* The sp04 start: sp04 from src onto the solve mesh (positions Vr, the
- * source's faces; every triangle paired with itself). */
+/* The solve mesh (positions Vr, the source's faces), borrowed. */
+static dtx_mesh solve_mesh(const dtx_springs_plan *p, const double *Vr)
+{
+    dtx_mesh sm = {p->nv_s, p->nf_s, (double *)Vr, p->Fs};
+    return sm;
+}
+
+/* The sp04 start: sp04 from src onto the solve mesh (every triangle paired
+ * with itself). */
 static dtx_status build_sp04_start(dtx_springs_plan *p, const dtx_mesh *src, const double *Vr,
                                    dtx_error *err)
 {
-    dtx_mesh sm;
+    const dtx_mesh sm = solve_mesh(p, Vr);
     dtx_status st;
     int32_t *pairs = dtx_alloc((size_t)p->nf_s, 2 * sizeof *pairs, 0);
     if (!pairs)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory creating the springs plan");
     for (int32_t t = 0; t < p->nf_s; t++)
         pairs[2 * (size_t)t] = pairs[2 * (size_t)t + 1] = t;
-    sm.nv = p->nv_s;
-    sm.nf = p->nf_s;
-    sm.V = (double *)Vr;
-    sm.F = p->Fs;
     st = dtx_sp04_plan_create(src, &sm, pairs, p->nf_s,
                               p->npins > 0 ? DTX_ANCHOR_PINS : DTX_ANCHOR_FIXED, p->pins,
                               p->pin_pos, p->npins, &p->sp04, err);
@@ -1232,7 +1235,7 @@ static dtx_status build_sp04_start(dtx_springs_plan *p, const dtx_mesh *src, con
 static dtx_status build_carry(dtx_springs_plan *p, const dtx_mesh *tgt, const double *Vr,
                               dtx_error *err)
 {
-    dtx_mesh sm;
+    const dtx_mesh sm = solve_mesh(p, Vr);
     dtx_status st;
     int32_t *pairs = dtx_alloc((size_t)p->nf_t, 2 * sizeof *pairs, 0);
     if (!pairs)
@@ -1241,10 +1244,6 @@ static dtx_status build_carry(dtx_springs_plan *p, const dtx_mesh *tgt, const do
         pairs[2 * (size_t)f] = p->drive[f];
         pairs[2 * (size_t)f + 1] = f;
     }
-    sm.nv = p->nv_s;
-    sm.nf = p->nf_s;
-    sm.V = (double *)Vr;
-    sm.F = p->Fs;
     st = dtx_sp04_plan_create(&sm, tgt, pairs, p->nf_t, DTX_ANCHOR_FIXED, NULL, NULL, 0, &p->carry,
                               err);
     free(pairs);

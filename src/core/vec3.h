@@ -27,6 +27,16 @@ static inline double dot3(const double *a, const double *b)
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
+/* Area of triangle (a, b, c): half the length of (b - a) x (c - a). */
+static inline double tri_area3(const double *a, const double *b, const double *c)
+{
+    double e1[3], e2[3], n[3];
+    sub3(b, a, e1);
+    sub3(c, a, e2);
+    cross3(e1, e2, n);
+    return 0.5 * sqrt(dot3(n, n));
+}
+
 /* Inverse of the 3x3 matrix whose COLUMNS are c0, c1, c2, written row-major
  * into inv.  Returns the determinant (0 leaves inv untouched). */
 static inline double inverse_of_columns(const double *c0, const double *c1, const double *c2,
