@@ -118,7 +118,7 @@ typedef struct {
     int n_closest;        /* number of closest-point phases after the first solve */
     double w_closest[16]; /* E_C weight of each phase */
     double max_distance;  /* closest-point and pairing threshold, fraction of the
-                             target bounding-box diagonal */
+                             target's size (dtx_rms_extent: rotation-invariant) */
     double max_angle_deg; /* normals must differ by less than this (paper: 90) */
     int align;            /* 1: similarity pre-alignment of the source on the markers */
     int closest_on;       /* where closest points lie: DTX_CORR_ON_SURFACE (default:

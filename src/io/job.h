@@ -78,7 +78,7 @@ typedef struct {
     int n_closest;         /* number of closest-point iterations */
     double w_closest[16];  /* [1, 100, 5000, 5000, 5000, 5000] closest-point weights */
     double max_distance;   /* [0.1] closest-point / pairing threshold, as a
-                              fraction of the target bounding-box diagonal */
+                              fraction of the target's size (dtx_rms_extent) */
     double max_angle_deg;  /* [90] normals must differ by less than this */
     int weights;           /* ["area"] DTX_CORR_WEIGHTS_AREA or _ELEMENT ("element"):
                               see dtx_corr_params */
