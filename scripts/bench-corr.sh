@@ -1,13 +1,14 @@
-#!/bin/sh
+#!/usr/bin/env bash
 # bench-corr.sh: the sp04 correspondence's choices measured one by one (issue 21, item 6).
 # For each variant, on cat -> lion (with the paper's own results: mean and worst RMS per pose
 # over the lion's diagonal, core.cat_lion_accuracy's measure) and on horse gallop -> camel
 # (no reference: time, pairs, fit), what `dtx_bench corr` prints.  Figures only, nothing
 # asserted.  Usage: scripts/bench-corr.sh [BUILD_DIR] (default build; data from
-# DTX_DATA, default /work/shared/data).
-set -eu
+# DTX_SHARED_DATA, default ../shared/data next to the repository).
+set -euo pipefail
+repo=$(cd "$(dirname "$0")/.." && pwd)
 build=${1:-build}
-data=${DTX_DATA:-/work/shared/data}
+data=${DTX_SHARED_DATA:-$repo/../shared/data}
 bench="$build/dtx_bench"
 paper="w_identity=0.001"
 # The paper raises w_C from 1 to 5000 in four steps; equal ratios (5000^(1/3) = 17.1 each)
