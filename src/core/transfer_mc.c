@@ -1111,6 +1111,14 @@ static void set_iterate(const dtx_mc_plan *p, mc_frame *fr, const double *xf)
     laplacian_apply(p, fr->x, fr->lx);
 }
 
+/* E at the free unknowns xf (E1 + E2 + E3 + E4), which become the frame's
+ * iterate (set_iterate). */
+static double energy_at(const dtx_mc_plan *p, mc_frame *fr, const double *xf)
+{
+    set_iterate(p, fr, xf);
+    return energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+}
+
 /* Anderson step from the last step (fr->fl = G(x) - x, fr->gl = G(x)) and
  * the nh stored differences, r[i] = df_i . fl: gamma minimising |fl - df
  * gamma| (normal equations by Cholesky, 1e-10 of the largest diagonal entry
@@ -1559,8 +1567,7 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             xt[i] = x[i] + dx[i];
             dmax = fabs(dx[i]) > dmax ? fabs(dx[i]) : dmax;
         }
-        set_iterate(p, fr, xt);
-        et = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+        et = energy_at(p, fr, xt);
         if (-2.0 * m > MC_ROUND * fabs(e))
             rho = (e - et) / (-2.0 * m);
         else
@@ -1587,8 +1594,7 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             for (int ls = 0; ls < MC_TR_BACKTRACK && !lowered; ls++, alpha *= 0.5) {
                 for (size_t i = 0; i < n3; i++)
                     xt[i] = x[i] + alpha * dx[i];
-                set_iterate(p, fr, xt);
-                et = energy12(p, fr->Sp, fr->x) + energy34(p, fr->x, fr->lx);
+                et = energy_at(p, fr, xt);
                 lowered = e - et > -MC_TR_ACCEPT * alpha * 2.0 * m;
             }
             if (lowered) { /* alpha is half the step taken */
