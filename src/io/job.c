@@ -547,13 +547,11 @@ const dtx_transfer_method *dtx_job_params_read(const char *params_json, dtx_tran
         cJSON_IsString(name) ? dtx_transfer_method_named(name->valuestring) : NULL;
     if (m) {
         const cJSON *obj = get(doc, m->name);
-        void *base = m->kind == DTX_TRANSFER_MULTICOMPONENT ? (void *)&prm->u.mc
-                     : m->kind == DTX_TRANSFER_SPRINGS      ? (void *)&prm->u.springs
-                     : m->kind == DTX_TRANSFER_BIHARMONIC   ? (void *)&prm->u.bh
-                                                            : NULL;
         dtx_transfer_params_default(prm, m->kind);
-        for (int i = 0; base && i < m->nsettings; i++) {
-            setting_ref ref = {&m->settings[i], base};
+        /* The method's settings are offsets into its member of the union,
+         * and every member starts at the union's address. */
+        for (int i = 0; i < m->nsettings; i++) {
+            setting_ref ref = {&m->settings[i], &prm->u};
             read_settings(obj, &ref, 1);
         }
     }
