@@ -843,7 +843,11 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
 
     dtx_face_normals(Tn, tgt->F, tgt->nf, tnormals);
     tbvh = dtx_bvh_build(Tn, tgt->F, tgt->nf);
-    if (tbvh && prm->closest_on == DTX_CORR_ON_VERTICES) {
+    if (!tbvh) {
+        st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
+        goto fail;
+    }
+    if (prm->closest_on == DTX_CORR_ON_VERTICES) {
         /* Closest points among the target's vertices only (with vertex
          * normals for the normal rule): what many implementations do, kept
          * to measure what the projection onto the triangles gains. */
@@ -854,10 +858,6 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
             goto fail;
         }
         dtx_vertex_normals(Tn, tgt->nv, tgt->F, tgt->nf, vnormals);
-    }
-    if (!tbvh) {
-        st = dtx_seterr(err, DTX_ENOMEM, "out of memory building the target's spatial index");
-        goto fail;
     }
     {
         /* Marker vertices are fixed at their target positions. */
