@@ -54,7 +54,7 @@ typedef struct {
     double radius; /* R */
     dtx_skin_params skin;
     int exact;
-    double *R0;    /* nframes x mmax x 9: the round's starting rotations (fast mode) */
+    dtx_skin_eval *ev; /* the round's frames, clustering and starting rotations (fast mode) */
 } kp_ctx;
 
 /* Per-thread workspace for one evaluation with up to mmax key points. */
@@ -65,6 +65,7 @@ typedef struct {
     int32_t *labels; /* nv */
     int32_t *handles; /* mmax */
     dtx_bbw_work *bw;
+    dtx_skin_eval_work *ew; /* fast mode */
 } kp_work;
 
 static void work_free(kp_work *w)
@@ -75,6 +76,7 @@ static void work_free(kp_work *w)
     free(w->labels);
     free(w->handles);
     dtx_bbw_work_free(&w->bw);
+    dtx_skin_eval_work_free(&w->ew);
     memset(w, 0, sizeof *w);
 }
 
@@ -87,7 +89,9 @@ static int work_alloc(kp_work *w, const kp_ctx *c, int32_t mmax, const dtx_bbw_i
     w->labels = dtx_alloc((size_t)c->nv, sizeof *w->labels, 0);
     w->handles = dtx_alloc((size_t)mmax, sizeof *w->handles, 0);
     w->bw = incr ? dtx_bbw_work_new(incr) : NULL;
-    if (!w->W || !w->T || !w->Q || !w->labels || !w->handles || (incr && !w->bw)) {
+    w->ew = incr && !c->exact ? dtx_skin_eval_work_new(c->sm, c->nframes, mmax, mmax) : NULL;
+    if (!w->W || !w->T || !w->Q || !w->labels || !w->handles || (incr && !w->bw) ||
+        (incr && !c->exact && !w->ew)) {
         work_free(w);
         return -1;
     }
@@ -120,7 +124,7 @@ static double rest_radius(const dtx_mesh *m)
 /* The error of weights W (nv x m, rows summing to 1) with the clustering
  * labels (k clusters): fit every frame, skin, mean vertex distance / R. */
 static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, const int32_t *labels,
-                               int32_t k, const double *R0, kp_work *w, double *out, dtx_error *e)
+                               int32_t k, kp_work *w, double *out, dtx_error *e)
 {
     dtx_skin_params sp = c->skin;
     dtx_skin_fit *fit = NULL;
@@ -133,7 +137,7 @@ static dtx_status eval_weights(const kp_ctx *c, int32_t m, const double *W, cons
         return st;
     memset(&o, 0, sizeof o);
     o.T = w->T;
-    st = dtx_skin_fit_frames_from(fit, c->nframes, c->X, R0, &sp, &o, e);
+    st = dtx_skin_fit_frames(fit, c->nframes, c->X, &sp, &o, e);
     dtx_skin_fit_free(&fit);
     if (st != DTX_OK)
         return st;
@@ -169,7 +173,7 @@ static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m,
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, NULL, w, out, e);
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
     return st;
 }
 
@@ -205,18 +209,29 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
     if (st == DTX_OK)
         st = cluster(c, m, w->W, m, threads, w->labels, e);
     if (st == DTX_OK)
-        st = eval_weights(c, m, w->W, w->labels, m, NULL, w, out, e);
+        st = eval_weights(c, m, w->W, w->labels, m, w, out, e);
+    return st;
+}
+
+/* The fast error of weights W (nv x m, rows summing to 1) with the round's
+ * clustering and starting rotations (c->ev): mean vertex distance / R. */
+static dtx_status eval_fast(const kp_ctx *c, int32_t m, const double *W, kp_work *w, double *out,
+                            dtx_error *e)
+{
+    dtx_status st = dtx_skin_eval_error(c->ev, m, W, w->ew, out, e);
+    if (st == DTX_OK)
+        *out /= c->radius;
     return st;
 }
 
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
  * == 0) that this part owns; +INFINITY elsewhere.  replace_j < 0: add the
- * candidate; else replace handle replace_j by it.  Fast mode: labels (nv)
- * is the round's clustering with k clusters. */
+ * candidate; else replace handle replace_j by it.  Fast mode: c->ev holds
+ * the round's clustering. */
 static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
-                       int32_t ncand, const unsigned char *inset, int replace_j,
-                       const int32_t *labels, int32_t k, kp_work *ws, int nthreads,
-                       const dtx_kp_params *p, double *errs, int64_t *evals, int64_t *failed)
+                       int32_t ncand, const unsigned char *inset, int replace_j, kp_work *ws,
+                       int nthreads, const dtx_kp_params *p, double *errs, int64_t *evals,
+                       int64_t *failed)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     const int32_t mm = replace_j < 0 ? m + 1 : m;
@@ -244,7 +259,7 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             if (st == DTX_OK && dtx_bbw_clamp_normalise(w->W, c->nv, mm, NULL) < 0)
                 st = DTX_ESOLVE;
             if (st == DTX_OK)
-                st = eval_weights(c, mm, w->W, labels, k, c->R0, w, &v, &e);
+                st = eval_fast(c, mm, w->W, w, &v, &e);
         }
         if (st != DTX_OK) {
             v = INFINITY;
@@ -266,9 +281,10 @@ static int32_t argmin(const double *v, int32_t n)
     return b;
 }
 
-/* The round's clustering (fast mode): the current set's clamped weights. */
-static dtx_status round_labels(const kp_ctx *c, const dtx_bbw_incr *incr, int32_t k,
-                               int threads, kp_work *w, dtx_error *e)
+/* The round's clustering (fast mode): the current set's clamped weights,
+ * and c->ev for it. */
+static dtx_status round_labels(kp_ctx *c, const dtx_bbw_incr *incr, int32_t k, int threads,
+                               kp_work *w, dtx_error *e)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
@@ -277,8 +293,10 @@ static dtx_status round_labels(const kp_ctx *c, const dtx_bbw_incr *incr, int32_
         return dtx_seterr(e, DTX_ESOLVE, "key points: weights of the current set sum to 0");
     if ((st = cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e)) != DTX_OK)
         return st;
-    /* Every candidate of the round starts its fits from these. */
-    return dtx_skin_start_rotations(c->sm, w->labels, k, c->nframes, c->X, c->R0, e);
+    /* Every candidate of the round is fitted with this clustering, from
+     * the same starting rotations. */
+    dtx_skin_eval_free(&c->ev);
+    return dtx_skin_eval_create(c->sm, w->labels, k, c->nframes, c->X, &c->skin, &c->ev, e);
 }
 
 static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error *err)
@@ -299,7 +317,7 @@ static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error
  * key points (candidate i added, or put in place of key replace_j >= 0),
  * reduced over the parts, and *best the candidate with the least (-1 when
  * none).  Sets *reduce_failed when the reduction over the parts failed. */
-static dtx_status score_round(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+static dtx_status score_round(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                               const unsigned char *inset, int replace_j, int32_t k, kp_work *ws,
                               int nthreads, const dtx_kp_params *p, double *errs,
                               dtx_kp_result *res, int *reduce_failed, int32_t *best, dtx_error *err)
@@ -307,7 +325,7 @@ static dtx_status score_round(const kp_ctx *c, const dtx_bbw_incr *incr, const i
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws[0].labels, k, ws, nthreads, p, errs,
+    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, errs,
                &res->evaluations, &res->failed);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
@@ -396,11 +414,6 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         goto fail;
     }
-    c.R0 = dtx_alloc((size_t)nframes * (size_t)mmax, 9 * sizeof *c.R0, 0);
-    if (!c.R0) {
-        st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
-        goto fail;
-    }
     c.skin.threads = nthreads;
     if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
                                    err)) != DTX_OK ||
@@ -431,8 +444,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if (c.exact)
         st = eval_exact(&c, res->keys, res->count, nthreads, &ws[0], &res->error, err);
     else if ((st = round_labels(&c, incr, res->count, nthreads, &ws[0], err)) == DTX_OK)
-        st = eval_weights(&c, res->count, ws[0].W, ws[0].labels, res->count, c.R0, &ws[0],
-                          &res->error, err);
+        st = eval_fast(&c, res->count, ws[0].W, &ws[0], &res->error, err);
     if (st != DTX_OK)
         goto fail;
     res->error_first = res->error;
@@ -533,7 +545,7 @@ done:
     free(errs);
     free(inset);
     free(c.feat);
-    free(c.R0);
+    dtx_skin_eval_free(&c.ev);
     dtx_skin_mesh_free(&c.sm);
     dtx_bbw_incr_free(&incr);
     return st;

@@ -717,42 +717,21 @@ static void start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels, in
     best_rotations(C, ncl, R);
 }
 
-static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double *R0,
-                          int max_iters, double tol, frame_ws *ws, double *Tout, double *energy,
-                          double *diff, int32_t *iters, double *Rout, double *trace)
+/* The local/global iterations of one frame from h = M^T q (in ws->h) and
+ * |q|^2 = qq, starting from the rotations R0 (ncl x 9, copied): the
+ * transforms end in ws->T and the rotations in ws->R; returns E (normalised
+ * units) and the pairs done in *iters.  trace as in dtx_skin_out (may be
+ * NULL). */
+static double iterate_frame(const dtx_skin_fit *fit, double qq, const double *R0, int max_iters,
+                            double tol, frame_ws *ws, int *iters, double *trace)
 {
     const dtx_skin_mesh *mesh = fit->mesh;
-    int32_t nv = mesh->nv, m = fit->m, n4 = fit->n4, ncl = fit->ncl;
-    double cf[3], qq, E, floor_, s2 = mesh->scale * mesh->scale;
+    int32_t n4 = fit->n4, ncl = fit->ncl;
+    double E, floor_, s2 = mesh->scale * mesh->scale;
     double lam = fit->lambda;
     int it = 0, nt = 0;
 
-    /* ---- the frame, centred on its centroid and scaled like the rest */
-    qq = centre_frame(mesh, X, ws->q, cf);
-
-    /* ---- h = M^T q: block k (4 x 3) += W_ik [p_i; 1] q_i^T */
-    memset(ws->h, 0, sizeof(double) * 3 * (size_t)n4);
-    for (int32_t i = 0; i < nv; i++) {
-        const double *pp = mesh->P + 3 * i, *qi = ws->q + 3 * i, *wi = fit->W + (size_t)i * m;
-        double z[12];
-        for (int a = 0; a < 4; a++) {
-            double pa = a < 3 ? pp[a] : 1.0;
-            for (int c = 0; c < 3; c++)
-                z[3 * a + c] = pa * qi[c];
-        }
-        for (int32_t k = 0; k < m; k++) {
-            double w = wi[k], *hk = ws->h + 12 * (size_t)k;
-            for (int j = 0; j < 12; j++)
-                hk[j] += w * z[j];
-        }
-    }
-
-    /* ---- starting rotations: the clusters' best fit to the frame itself
-     * (given, or computed here alike) */
-    if (R0)
-        memcpy(ws->R, R0, sizeof(double) * 9 * (size_t)ncl);
-    else
-        start_rotations(mesh, fit->labels, ncl, ws->q, ws->C, ws->R);
+    memcpy(ws->R, R0, sizeof(double) * 9 * (size_t)ncl);
 
     /* ---- first global step and the energy in full */
     arap_rhs(fit, ws->h, ws->R, ws->b);
@@ -797,6 +776,46 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double
     if (trace)
         for (int k = nt; k < 2 * max_iters + 1; k++)
             trace[k] = NAN;
+    *iters = it;
+    return E;
+}
+
+static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double *R0,
+                          int max_iters, double tol, frame_ws *ws, double *Tout, double *energy,
+                          double *diff, int32_t *iters, double *Rout, double *trace)
+{
+    const dtx_skin_mesh *mesh = fit->mesh;
+    int32_t nv = mesh->nv, m = fit->m, n4 = fit->n4, ncl = fit->ncl;
+    double cf[3], qq, E, s2 = mesh->scale * mesh->scale;
+    int it = 0;
+
+    /* ---- the frame, centred on its centroid and scaled like the rest */
+    qq = centre_frame(mesh, X, ws->q, cf);
+
+    /* ---- h = M^T q: block k (4 x 3) += W_ik [p_i; 1] q_i^T */
+    memset(ws->h, 0, sizeof(double) * 3 * (size_t)n4);
+    for (int32_t i = 0; i < nv; i++) {
+        const double *pp = mesh->P + 3 * i, *qi = ws->q + 3 * i, *wi = fit->W + (size_t)i * m;
+        double z[12];
+        for (int a = 0; a < 4; a++) {
+            double pa = a < 3 ? pp[a] : 1.0;
+            for (int c = 0; c < 3; c++)
+                z[3 * a + c] = pa * qi[c];
+        }
+        for (int32_t k = 0; k < m; k++) {
+            double w = wi[k], *hk = ws->h + 12 * (size_t)k;
+            for (int j = 0; j < 12; j++)
+                hk[j] += w * z[j];
+        }
+    }
+
+    /* ---- starting rotations: the clusters' best fit to the frame itself
+     * (given, or computed here alike), then the iterations */
+    if (!R0) {
+        start_rotations(mesh, fit->labels, ncl, ws->q, ws->C, ws->Rn);
+        R0 = ws->Rn;
+    }
+    E = iterate_frame(fit, qq, R0, max_iters, tol, ws, &it, trace);
 
     /* ---- outputs, back in the caller's coordinates */
     if (diff) {
@@ -1001,4 +1020,367 @@ dtx_status dtx_skin_energy(const dtx_skin_fit *fit, const double *X, const doubl
     if (diff)
         *diff = ed;
     return DTX_OK;
+}
+
+/* ================================================================== */
+/* Fit errors of many weight sets (the key-point selection's rounds)   */
+/* ================================================================== */
+
+/* BLAS (Fortran interface): C = alpha op(A) op(B) + beta C, column-major. */
+extern void dgemm_(const char *transa, const char *transb, const int *m, const int *n,
+                   const int *k, const double *alpha, const double *a, const int *lda,
+                   const double *b, const int *ldb, const double *beta, double *c,
+                   const int *ldc);
+
+struct dtx_skin_eval {
+    const dtx_skin_mesh *mesh;
+    int32_t nframes, ncl;
+    double lambda, tol;
+    int max_iters;
+    double *Qh; /* nv x 3 nframes: frame f centred and scaled, at [i][3 f + c] */
+    double *qq; /* nframes: |q|^2 of each centred, scaled frame */
+    double *R0; /* nframes x ncl x 9: the starting rotations */
+    /* P_g[a][r] = sum_j D_g[a][j] M^T[r][j], D stored by vertex j:
+     * entries dstart[j] .. dstart[j + 1] - 1, cluster dg[e], coefficients
+     * dw[3 e .. 3 e + 2]. */
+    int64_t *dstart; /* nv + 1 */
+    int32_t *dg;
+    double *dw;
+};
+
+struct dtx_skin_eval_work {
+    int32_t mmax, nclmax, nframes;
+    double *Mt;  /* 4 mmax x nv: M^T, row r = 4 k + a */
+    double *B;   /* 4 mmax x nv: (M + 2 lambda L M)^T */
+    double *Qf;  /* nv x 3 nframes: the skinned frames */
+    double *Hc;  /* 3 nframes x 4 mmax, column-major: M^T q of every frame */
+    double *Tc;  /* 3 nframes x 4 mmax, column-major: the fitted transforms */
+    double *A;   /* (4 mmax)^2 */
+    double *Pg;  /* nclmax x 3 x 4 mmax */
+    double *pool;
+    frame_ws fw;
+};
+
+void dtx_skin_eval_free(dtx_skin_eval **ev)
+{
+    if (!ev || !*ev)
+        return;
+    free((*ev)->Qh);
+    free((*ev)->qq);
+    free((*ev)->R0);
+    free((*ev)->dstart);
+    free((*ev)->dg);
+    free((*ev)->dw);
+    free(*ev);
+    *ev = NULL;
+}
+
+dtx_status dtx_skin_eval_create(const dtx_skin_mesh *mesh, const int32_t *labels,
+                                int32_t nclusters, int32_t nframes, const double *X,
+                                const dtx_skin_params *p, dtx_skin_eval **out, dtx_error *err)
+{
+    dtx_skin_eval *ev;
+    double *q = NULL, *C = NULL, cf[3];
+    int32_t nv, *cnt = NULL;
+    size_t w3;
+    dtx_status st = DTX_OK;
+
+    if (!out)
+        return dtx_seterr(err, DTX_EINVAL, "skinning errors: no output pointer");
+    *out = NULL;
+    if (!mesh || !labels || !p || nclusters < 1 || nframes < 1 || !X)
+        return dtx_seterr(err, DTX_EINVAL, "skinning errors: bad arguments");
+    if (!(p->lambda >= 0.0) || !isfinite(p->lambda) || p->max_iters < 0 || !(p->tol >= 0.0))
+        return dtx_seterr(err, DTX_EINVAL,
+                          "skinning errors: lambda >= 0, max_iters >= 0 and tol >= 0 needed "
+                          "(got %g, %d, %g)",
+                          p->lambda, p->max_iters, p->tol);
+    nv = mesh->nv;
+    for (int32_t i = 0; i < nv; i++)
+        if (labels[i] < 0 || labels[i] >= nclusters)
+            return dtx_seterr(err, DTX_ERANGE,
+                              "skinning errors: vertex %d has cluster label %d (clusters: %d)",
+                              (int)i, (int)labels[i], (int)nclusters);
+    for (int64_t i = 0; i < (int64_t)nframes * nv * 3; i++)
+        if (!isfinite(X[i]))
+            return dtx_seterr(err, DTX_ENONFINITE,
+                              "skinning errors: frame %lld, vertex %lld has a non-finite "
+                              "coordinate",
+                              (long long)(i / (3 * (int64_t)nv)), (long long)(i / 3 % nv));
+    ev = calloc(1, sizeof *ev);
+    if (!ev)
+        return dtx_seterr(err, DTX_ENOMEM, "skinning errors: out of memory");
+    ev->mesh = mesh;
+    ev->nframes = nframes;
+    ev->ncl = nclusters;
+    ev->lambda = p->lambda;
+    ev->tol = p->tol;
+    ev->max_iters = p->max_iters;
+    w3 = 3 * (size_t)nframes;
+    ev->Qh = dtx_alloc((size_t)nv, w3 * sizeof *ev->Qh, 0);
+    ev->qq = dtx_alloc((size_t)nframes, sizeof *ev->qq, 0);
+    ev->R0 = dtx_alloc((size_t)nframes * (size_t)nclusters, 9 * sizeof *ev->R0, 0);
+    ev->dstart = dtx_alloc((size_t)nv + 1, sizeof *ev->dstart, 0);
+    ev->dg = dtx_alloc((size_t)(nv + mesh->nspokes), sizeof *ev->dg, 0);
+    ev->dw = dtx_alloc((size_t)(nv + mesh->nspokes), 3 * sizeof *ev->dw, 0);
+    q = dtx_alloc((size_t)nv, 3 * sizeof *q, 0);
+    C = dtx_alloc((size_t)nclusters, 9 * sizeof *C, 0);
+    cnt = dtx_alloc((size_t)nv, sizeof *cnt, 1);
+    if (!ev->Qh || !ev->qq || !ev->R0 || !ev->dstart || !ev->dg || !ev->dw || !q || !C || !cnt) {
+        st = dtx_seterr(err, DTX_ENOMEM, "skinning errors: out of memory (%d vertices, %d frames)",
+                        (int)nv, (int)nframes);
+        goto done;
+    }
+
+    /* ---- the frames, centred and scaled as dtx_skin_fit_frames does, and
+     * their starting rotations (dtx_skin_start_rotations) */
+    for (int32_t f = 0; f < nframes; f++) {
+        ev->qq[f] = centre_frame(mesh, X + (size_t)f * nv * 3, q, cf);
+        start_rotations(mesh, labels, nclusters, q, C, ev->R0 + (size_t)f * nclusters * 9);
+        for (int32_t i = 0; i < nv; i++)
+            for (int c = 0; c < 3; c++)
+                ev->Qh[(size_t)i * w3 + 3 * (size_t)f + c] = q[3 * i + c];
+    }
+
+    /* ---- D by vertex j: vertex i of cluster g puts vertex_we[i] on j = i
+     * and -spoke_we[e] on j = spoke_j[e] for each of its spokes e; entries
+     * of one (j, g) are merged, in the order the spokes come. */
+    for (int32_t i = 0; i < nv; i++) {
+        cnt[i]++;
+        for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++)
+            cnt[mesh->spoke_j[e]]++;
+    }
+    ev->dstart[0] = 0;
+    for (int32_t j = 0; j < nv; j++)
+        ev->dstart[j + 1] = ev->dstart[j] + cnt[j];
+    for (int32_t j = 0; j < nv; j++)
+        cnt[j] = 0; /* entries of j so far */
+    for (int32_t i = 0; i < nv; i++) {
+        for (int64_t e = mesh->spoke_start[i] - 1; e < mesh->spoke_start[i + 1]; e++) {
+            int own = e < mesh->spoke_start[i];
+            int32_t j = own ? i : mesh->spoke_j[e];
+            const double *d = own ? mesh->vertex_we + 3 * (size_t)i : mesh->spoke_we + 3 * e;
+            double s = own ? 1.0 : -1.0;
+            int64_t b = ev->dstart[j], x = b;
+            while (x < b + cnt[j] && ev->dg[x] != labels[i])
+                x++;
+            if (x == b + cnt[j]) {
+                ev->dg[x] = labels[i];
+                ev->dw[3 * x] = ev->dw[3 * x + 1] = ev->dw[3 * x + 2] = 0.0;
+                cnt[j]++;
+            }
+            for (int a = 0; a < 3; a++)
+                ev->dw[3 * x + a] += s * d[a];
+        }
+    }
+    /* Compact: entries of j are dstart[j] .. dstart[j] + cnt[j] - 1. */
+    {
+        int64_t o = 0;
+        for (int32_t j = 0; j < nv; j++) {
+            int64_t b = ev->dstart[j];
+            ev->dstart[j] = o;
+            for (int32_t t = 0; t < cnt[j]; t++, o++) {
+                ev->dg[o] = ev->dg[b + t];
+                for (int a = 0; a < 3; a++)
+                    ev->dw[3 * o + a] = ev->dw[3 * (b + t) + a];
+            }
+        }
+        ev->dstart[nv] = o;
+    }
+
+done:
+    free(q);
+    free(C);
+    free(cnt);
+    if (st != DTX_OK)
+        dtx_skin_eval_free(&ev);
+    *out = ev;
+    return st;
+}
+
+void dtx_skin_eval_work_free(dtx_skin_eval_work **work)
+{
+    dtx_skin_eval_work *w;
+    if (!work || !*work)
+        return;
+    w = *work;
+    free(w->Mt);
+    free(w->B);
+    free(w->Qf);
+    free(w->Hc);
+    free(w->Tc);
+    free(w->A);
+    free(w->Pg);
+    free(w->pool);
+    free(w);
+    *work = NULL;
+}
+
+dtx_skin_eval_work *dtx_skin_eval_work_new(const dtx_skin_mesh *mesh, int32_t nframes,
+                                           int32_t mmax, int32_t nclmax)
+{
+    dtx_skin_eval_work *w;
+    size_t nv, n4, w3;
+    double *b;
+    if (!mesh || nframes < 1 || mmax < 1 || nclmax < 1 || mmax > (INT32_MAX / 4) ||
+        (double)mmax * 4 * mesh->nv > (double)INT32_MAX ||
+        (double)nframes * 3 * mesh->nv > (double)INT32_MAX)
+        return NULL;
+    w = calloc(1, sizeof *w);
+    if (!w)
+        return NULL;
+    nv = (size_t)mesh->nv;
+    n4 = 4 * (size_t)mmax;
+    w3 = 3 * (size_t)nframes;
+    w->mmax = mmax;
+    w->nclmax = nclmax;
+    w->nframes = nframes;
+    w->Mt = dtx_alloc(n4, nv * sizeof *w->Mt, 0);
+    w->B = dtx_alloc(n4, nv * sizeof *w->B, 0);
+    w->Qf = dtx_alloc(nv, w3 * sizeof *w->Qf, 0);
+    w->Hc = dtx_alloc(w3, n4 * sizeof *w->Hc, 0);
+    w->Tc = dtx_alloc(w3, n4 * sizeof *w->Tc, 0);
+    w->A = dtx_alloc(n4, n4 * sizeof *w->A, 0);
+    w->Pg = dtx_alloc((size_t)nclmax * 3, n4 * sizeof *w->Pg, 0);
+    w->pool = dtx_alloc(5 * n4 * 3 + 3 * (size_t)nclmax * 9, sizeof *w->pool, 0);
+    if (!w->Mt || !w->B || !w->Qf || !w->Hc || !w->Tc || !w->A || !w->Pg || !w->pool) {
+        dtx_skin_eval_work_free(&w);
+        return NULL;
+    }
+    b = w->pool;
+    w->fw.q = NULL; /* the frames are centred once, in the dtx_skin_eval */
+    w->fw.h = carve(&b, n4 * 3);
+    w->fw.T = carve(&b, n4 * 3);
+    w->fw.Tn = carve(&b, n4 * 3);
+    w->fw.b = carve(&b, n4 * 3);
+    w->fw.C = carve(&b, (size_t)nclmax * 9);
+    w->fw.R = carve(&b, (size_t)nclmax * 9);
+    w->fw.Rn = carve(&b, (size_t)nclmax * 9);
+    return w;
+}
+
+dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double *W,
+                               dtx_skin_eval_work *w, double *mean_dist, dtx_error *err)
+{
+    const dtx_skin_mesh *mesh;
+    dtx_skin_fit fit;
+    int32_t nv, n4, nf, ncl;
+    int in4, inv, iw3;
+    size_t w3;
+    const double one = 1.0, zero = 0.0;
+    double sum = 0.0;
+
+    if (!ev || !W || !w || !mean_dist || m < 1)
+        return dtx_seterr(err, DTX_EINVAL, "skinning errors: bad arguments");
+    mesh = ev->mesh;
+    nv = mesh->nv;
+    nf = ev->nframes;
+    ncl = ev->ncl;
+    n4 = 4 * m;
+    if (m > w->mmax || ncl > w->nclmax || nf > w->nframes)
+        return dtx_seterr(err, DTX_EINVAL,
+                          "skinning errors: workspace for %d handles, %d clusters, %d frames "
+                          "used with %d, %d, %d",
+                          (int)w->mmax, (int)w->nclmax, (int)w->nframes, (int)m, (int)ncl, (int)nf);
+    w3 = 3 * (size_t)nf;
+    in4 = (int)n4;
+    inv = (int)nv;
+    iw3 = (int)w3;
+
+    /* ---- M^T from the weights (checked as dtx_skin_fit_create does) */
+    for (int32_t i = 0; i < nv; i++) {
+        const double *wi = W + (size_t)i * m, *pp = mesh->P + 3 * (size_t)i;
+        double s = 0.0;
+        for (int32_t k = 0; k < m; k++) {
+            double x = wi[k];
+            if (!isfinite(x))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "skinning errors: weight of vertex %d, handle %d is not finite",
+                                  (int)i, (int)k);
+            s += x;
+            w->Mt[(size_t)(4 * k) * nv + i] = x * pp[0];
+            w->Mt[(size_t)(4 * k + 1) * nv + i] = x * pp[1];
+            w->Mt[(size_t)(4 * k + 2) * nv + i] = x * pp[2];
+            w->Mt[(size_t)(4 * k + 3) * nv + i] = x;
+        }
+        if (fabs(s - 1.0) > SKIN_UNITY_TOL)
+            return dtx_seterr(err, DTX_EINVAL,
+                              "skinning errors: the weights of vertex %d sum to %.17g, not 1",
+                              (int)i, s);
+    }
+
+    /* ---- B = (M + 2 lambda L M)^T, then A = lambda K + G = M^T B^T (upper
+     * triangle, mirrored) and its Cholesky factor */
+    for (int32_t r = 0; r < n4; r++) {
+        const double *mt = w->Mt + (size_t)r * nv;
+        double *bt = w->B + (size_t)r * nv;
+        for (int32_t i = 0; i < nv; i++) {
+            double s = 0.0;
+            for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++)
+                s += mesh->spoke_w[e] * (mt[i] - mt[mesh->spoke_j[e]]);
+            bt[i] = mt[i] + 2.0 * ev->lambda * s;
+        }
+    }
+    /* Column-major, Mt is M (nv x n4, ld nv) and B likewise, so M^T B lands
+     * in A transposed: row-major A[c][r] = M^T_r . B_c.  cholesky() reads the
+     * lower triangle (c >= r), i.e. the upper triangle of M^T B, as
+     * dtx_skin_fit_create does. */
+    dgemm_("T", "N", &in4, &in4, &inv, &one, w->Mt, &inv, w->B, &inv, &zero, w->A, &in4);
+    if (cholesky(w->A, n4) >= 0)
+        return dtx_seterr(err, DTX_ESOLVE,
+                          "skinning errors: the normal matrix is not positive definite (the "
+                          "weights times [p 1] are linearly dependent)");
+
+    /* ---- P_g = D_g M (3 x n4 per cluster) */
+    memset(w->Pg, 0, sizeof(double) * (size_t)ncl * 3 * (size_t)n4);
+    for (int32_t j = 0; j < nv; j++) {
+        const double *wj = W + (size_t)j * m, *pp = mesh->P + 3 * (size_t)j;
+        for (int64_t x = ev->dstart[j]; x < ev->dstart[j + 1]; x++) {
+            double *pg = w->Pg + (size_t)ev->dg[x] * 3 * n4;
+            const double *d = ev->dw + 3 * x;
+            for (int32_t k = 0; k < m; k++) {
+                double v[4] = {wj[k] * pp[0], wj[k] * pp[1], wj[k] * pp[2], wj[k]};
+                for (int a = 0; a < 3; a++)
+                    for (int b = 0; b < 4; b++)
+                        pg[(size_t)a * n4 + 4 * k + b] += d[a] * v[b];
+            }
+        }
+    }
+
+    /* ---- every frame's M^T q at once: Hc (3 nf x n4) = Qh^T M */
+    dgemm_("N", "N", &iw3, &in4, &inv, &one, ev->Qh, &iw3, w->Mt, &inv, &zero, w->Hc, &iw3);
+
+    /* ---- the local/global fit of each frame */
+    memset(&fit, 0, sizeof fit);
+    fit.mesh = mesh;
+    fit.m = m;
+    fit.n4 = n4;
+    fit.ncl = ncl;
+    fit.lambda = ev->lambda;
+    fit.L = w->A;
+    fit.Pg = w->Pg;
+    for (int32_t f = 0; f < nf; f++) {
+        int it;
+        for (int32_t r = 0; r < n4; r++)
+            for (int c = 0; c < 3; c++)
+                w->fw.h[3 * r + c] = w->Hc[(size_t)r * w3 + 3 * (size_t)f + c];
+        iterate_frame(&fit, ev->qq[f], ev->R0 + (size_t)f * ncl * 9, ev->max_iters, ev->tol, &w->fw,
+                      &it, NULL);
+        for (int32_t r = 0; r < n4; r++)
+            for (int c = 0; c < 3; c++)
+                w->Tc[(size_t)r * w3 + 3 * (size_t)f + c] = w->fw.T[3 * r + c];
+    }
+
+    /* ---- the skinned frames Qf (nv x 3 nf) = M T, and the distances */
+    dgemm_("N", "T", &iw3, &inv, &in4, &one, w->Tc, &iw3, w->Mt, &inv, &zero, w->Qf, &iw3);
+    for (size_t i = 0; i < (size_t)nv; i++) {
+        const double *q = w->Qf + i * w3, *y = ev->Qh + i * w3;
+        for (size_t t = 0; t < w3; t += 3)
+            sum += sqrt((q[t] - y[t]) * (q[t] - y[t]) + (q[t + 1] - y[t + 1]) * (q[t + 1] - y[t + 1]) +
+                        (q[t + 2] - y[t + 2]) * (q[t + 2] - y[t + 2]));
+    }
+    *mean_dist = sum * mesh->scale / ((double)nf * (double)nv);
+    return isfinite(*mean_dist)
+               ? DTX_OK
+               : dtx_seterr(err, DTX_ENONFINITE, "skinning errors: non-finite fit error");
 }

@@ -236,6 +236,47 @@ dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, co
                                     const double *R0, const dtx_skin_params *p, dtx_skin_out *out,
                                     dtx_error *err);
 
+/* ------------------------------------------------------------------ */
+/* Fit errors of many weight sets (skinning.c)                         */
+/* ------------------------------------------------------------------ */
+
+/* What the error of a fit depends on besides the weights, for callers that
+ * try many weight sets with one clustering and one frame set (the key-point
+ * selection's round): the frames centred and scaled, their starting
+ * rotations (dtx_skin_start_rotations) and the clusters' covariance map
+ * from the rest mesh alone.  Immutable once built: dtx_skin_eval_error may
+ * run concurrently on one, each caller with its own workspace. */
+typedef struct dtx_skin_eval dtx_skin_eval;
+typedef struct dtx_skin_eval_work dtx_skin_eval_work;
+
+/* labels: nv in [0, nclusters); X: nframes x nv x 3 (nframes >= 1), copied
+ * centred and scaled; p: lambda, max_iters, tol.  mesh must outlive the
+ * result.  O(nframes spokes).  Errors: DTX_EINVAL, DTX_ERANGE (a label),
+ * DTX_ENONFINITE (a coordinate), DTX_ENOMEM; *out is NULL on failure. */
+dtx_status dtx_skin_eval_create(const dtx_skin_mesh *mesh, const int32_t *labels,
+                                int32_t nclusters, int32_t nframes, const double *X,
+                                const dtx_skin_params *p, dtx_skin_eval **out, dtx_error *err);
+void dtx_skin_eval_free(dtx_skin_eval **ev);
+
+/* Scratch for dtx_skin_eval_error with up to mmax handles, nclmax
+ * clusters and nframes frames of mesh; NULL when out of memory or too big. */
+dtx_skin_eval_work *dtx_skin_eval_work_new(const dtx_skin_mesh *mesh, int32_t nframes,
+                                           int32_t mmax, int32_t nclmax);
+void dtx_skin_eval_work_free(dtx_skin_eval_work **work);
+
+/* The mean over frames and vertices of |q_i - q'_i|, q the frame fitted
+ * with weights W (nv x m, rows summing to 1 within 1e-6) as
+ * dtx_skin_fit_create + dtx_skin_fit_frames_from + dtx_skin_apply would fit
+ * and skin it, q' the frame, in the frames' units.  The same mathematics
+ * as that path, computed with fewer passes over the mesh (the normal
+ * matrix, every frame's M^T q' and the skinned frames are three BLAS
+ * products, the covariance map a sparse product), so the last bits differ.
+ * Deterministic: one call gives the same bits on any thread.  Errors:
+ * DTX_EINVAL (arguments, a row sum), DTX_ENONFINITE, DTX_ESOLVE (the normal
+ * matrix is not positive definite). */
+dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double *W,
+                               dtx_skin_eval_work *work, double *mean_dist, dtx_error *err);
+
 /* E = lambda E_arap + E_diff (the fit's lambda) evaluated directly on the
  * mesh (O(nv m + spokes)) for one frame X (nv x 3), transforms T (m x 12)
  * and cluster rotations R (nclusters x 9): a check on the reduced-space
