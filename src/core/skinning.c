@@ -1050,8 +1050,8 @@ struct dtx_skin_eval {
 
 struct dtx_skin_eval_work {
     int32_t mmax, nclmax, nframes;
-    double *Mt;  /* 4 mmax x nv: M^T, row r = 4 k + a */
-    double *B;   /* 4 mmax x nv: (M + 2 lambda L M)^T */
+    double *M;   /* nv x 4 m (row-major, m the call's handles): M[i][4 k + a] */
+    double *B;   /* nv x 4 m: M + 2 lambda L M */
     double *Qf;  /* nv x 3 nframes: the skinned frames */
     double *Hc;  /* 3 nframes x 4 mmax, column-major: M^T q of every frame */
     double *Tc;  /* 3 nframes x 4 mmax, column-major: the fitted transforms */
@@ -1204,7 +1204,7 @@ void dtx_skin_eval_work_free(dtx_skin_eval_work **work)
     if (!work || !*work)
         return;
     w = *work;
-    free(w->Mt);
+    free(w->M);
     free(w->B);
     free(w->Qf);
     free(w->Hc);
@@ -1235,7 +1235,7 @@ dtx_skin_eval_work *dtx_skin_eval_work_new(const dtx_skin_mesh *mesh, int32_t nf
     w->mmax = mmax;
     w->nclmax = nclmax;
     w->nframes = nframes;
-    w->Mt = dtx_alloc(n4, nv * sizeof *w->Mt, 0);
+    w->M = dtx_alloc(n4, nv * sizeof *w->M, 0);
     w->B = dtx_alloc(n4, nv * sizeof *w->B, 0);
     w->Qf = dtx_alloc(nv, w3 * sizeof *w->Qf, 0);
     w->Hc = dtx_alloc(w3, n4 * sizeof *w->Hc, 0);
@@ -1243,7 +1243,7 @@ dtx_skin_eval_work *dtx_skin_eval_work_new(const dtx_skin_mesh *mesh, int32_t nf
     w->A = dtx_alloc(n4, n4 * sizeof *w->A, 0);
     w->Pg = dtx_alloc((size_t)nclmax * 3, n4 * sizeof *w->Pg, 0);
     w->pool = dtx_alloc(5 * n4 * 3 + 3 * (size_t)nclmax * 9, sizeof *w->pool, 0);
-    if (!w->Mt || !w->B || !w->Qf || !w->Hc || !w->Tc || !w->A || !w->Pg || !w->pool) {
+    if (!w->M || !w->B || !w->Qf || !w->Hc || !w->Tc || !w->A || !w->Pg || !w->pool) {
         dtx_skin_eval_work_free(&w);
         return NULL;
     }
@@ -1287,10 +1287,10 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
     inv = (int)nv;
     iw3 = (int)w3;
 
-    /* ---- M^T from the weights (checked as dtx_skin_fit_create does) */
+    /* ---- M from the weights (checked as dtx_skin_fit_create does) */
     for (int32_t i = 0; i < nv; i++) {
         const double *wi = W + (size_t)i * m, *pp = mesh->P + 3 * (size_t)i;
-        double s = 0.0;
+        double *mi = w->M + (size_t)i * n4, s = 0.0;
         for (int32_t k = 0; k < m; k++) {
             double x = wi[k];
             if (!isfinite(x))
@@ -1298,10 +1298,10 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
                                   "skinning errors: weight of vertex %d, handle %d is not finite",
                                   (int)i, (int)k);
             s += x;
-            w->Mt[(size_t)(4 * k) * nv + i] = x * pp[0];
-            w->Mt[(size_t)(4 * k + 1) * nv + i] = x * pp[1];
-            w->Mt[(size_t)(4 * k + 2) * nv + i] = x * pp[2];
-            w->Mt[(size_t)(4 * k + 3) * nv + i] = x;
+            mi[4 * k] = x * pp[0];
+            mi[4 * k + 1] = x * pp[1];
+            mi[4 * k + 2] = x * pp[2];
+            mi[4 * k + 3] = x;
         }
         if (fabs(s - 1.0) > SKIN_UNITY_TOL)
             return dtx_seterr(err, DTX_EINVAL,
@@ -1309,23 +1309,27 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
                               (int)i, s);
     }
 
-    /* ---- B = (M + 2 lambda L M)^T, then A = lambda K + G = M^T B^T (upper
-     * triangle, mirrored) and its Cholesky factor */
-    for (int32_t r = 0; r < n4; r++) {
-        const double *mt = w->Mt + (size_t)r * nv;
-        double *bt = w->B + (size_t)r * nv;
-        for (int32_t i = 0; i < nv; i++) {
-            double s = 0.0;
-            for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++)
-                s += mesh->spoke_w[e] * (mt[i] - mt[mesh->spoke_j[e]]);
-            bt[i] = mt[i] + 2.0 * ev->lambda * s;
+    /* ---- B = M + 2 lambda L M (L the spoke Laplacian), row by row, then
+     * A = lambda K + G = M^T B and its Cholesky factor.  Row-major M and B
+     * are column-major n4 x nv; A = M^T B lands row-major as B^T M, whose
+     * lower triangle cholesky() reads: the upper triangle of M^T B, as
+     * dtx_skin_fit_create computes it. */
+    for (int32_t i = 0; i < nv; i++) {
+        const double *mi = w->M + (size_t)i * n4;
+        double *bi = w->B + (size_t)i * n4, c = 2.0 * ev->lambda, d = 0.0;
+        for (int32_t r = 0; r < n4; r++)
+            bi[r] = 0.0;
+        for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++) {
+            const double *mj = w->M + (size_t)mesh->spoke_j[e] * n4;
+            double we = mesh->spoke_w[e];
+            d += we;
+            for (int32_t r = 0; r < n4; r++)
+                bi[r] -= we * mj[r];
         }
+        for (int32_t r = 0; r < n4; r++)
+            bi[r] = mi[r] + c * (d * mi[r] + bi[r]);
     }
-    /* Column-major, Mt is M (nv x n4, ld nv) and B likewise, so M^T B lands
-     * in A transposed: row-major A[c][r] = M^T_r . B_c.  cholesky() reads the
-     * lower triangle (c >= r), i.e. the upper triangle of M^T B, as
-     * dtx_skin_fit_create does. */
-    dgemm_("T", "N", &in4, &in4, &inv, &one, w->Mt, &inv, w->B, &inv, &zero, w->A, &in4);
+    dgemm_("N", "T", &in4, &in4, &inv, &one, w->M, &in4, w->B, &in4, &zero, w->A, &in4);
     if (cholesky(w->A, n4) >= 0)
         return dtx_seterr(err, DTX_ESOLVE,
                           "skinning errors: the normal matrix is not positive definite (the "
@@ -1334,21 +1338,18 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
     /* ---- P_g = D_g M (3 x n4 per cluster) */
     memset(w->Pg, 0, sizeof(double) * (size_t)ncl * 3 * (size_t)n4);
     for (int32_t j = 0; j < nv; j++) {
-        const double *wj = W + (size_t)j * m, *pp = mesh->P + 3 * (size_t)j;
+        const double *mj = w->M + (size_t)j * n4;
         for (int64_t x = ev->dstart[j]; x < ev->dstart[j + 1]; x++) {
             double *pg = w->Pg + (size_t)ev->dg[x] * 3 * n4;
             const double *d = ev->dw + 3 * x;
-            for (int32_t k = 0; k < m; k++) {
-                double v[4] = {wj[k] * pp[0], wj[k] * pp[1], wj[k] * pp[2], wj[k]};
-                for (int a = 0; a < 3; a++)
-                    for (int b = 0; b < 4; b++)
-                        pg[(size_t)a * n4 + 4 * k + b] += d[a] * v[b];
-            }
+            for (int a = 0; a < 3; a++)
+                for (int32_t r = 0; r < n4; r++)
+                    pg[(size_t)a * n4 + r] += d[a] * mj[r];
         }
     }
 
     /* ---- every frame's M^T q at once: Hc (3 nf x n4) = Qh^T M */
-    dgemm_("N", "N", &iw3, &in4, &inv, &one, ev->Qh, &iw3, w->Mt, &inv, &zero, w->Hc, &iw3);
+    dgemm_("N", "T", &iw3, &in4, &inv, &one, ev->Qh, &iw3, w->M, &in4, &zero, w->Hc, &iw3);
 
     /* ---- the local/global fit of each frame */
     memset(&fit, 0, sizeof fit);
@@ -1372,7 +1373,7 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
     }
 
     /* ---- the skinned frames Qf (nv x 3 nf) = M T, and the distances */
-    dgemm_("N", "T", &iw3, &inv, &in4, &one, w->Tc, &iw3, w->Mt, &inv, &zero, w->Qf, &iw3);
+    dgemm_("N", "N", &iw3, &inv, &in4, &one, w->Tc, &iw3, w->M, &in4, &zero, w->Qf, &iw3);
     for (size_t i = 0; i < (size_t)nv; i++) {
         const double *q = w->Qf + i * w3, *y = ev->Qh + i * w3;
         for (size_t t = 0; t < w3; t += 3)
