@@ -200,6 +200,25 @@ dtx_status dtx_bbw_incr_weights_add(const dtx_bbw_incr *ctx, int32_t c, double *
 dtx_status dtx_bbw_incr_weights_replace(const dtx_bbw_incr *ctx, int32_t j, int32_t c,
                                         double *W_out, dtx_bbw_work *work, dtx_error *err);
 
+/* The Green's function g (nv, caller-allocated) of vertex c (not a handle)
+ * for the current set: g = 0 at the handles, Q_ff g(f) = e_c: the one
+ * back-substitution of the two functions above.  A caller that evaluates
+ * the same candidate for several rounds with no commit in between (the
+ * replacement rounds of key-point selection) computes it once and passes
+ * it to the _g variants below, which then give the bits of the functions
+ * above.  Same thread-safety and errors. */
+dtx_status dtx_bbw_incr_green(const dtx_bbw_incr *ctx, int32_t c, double *g, dtx_bbw_work *work,
+                              dtx_error *err);
+
+/* dtx_bbw_incr_weights_add and _replace with c's Green's function g from
+ * dtx_bbw_incr_green for the current set (NULL: computed here).  g is only
+ * read.  Cost O(nv m). */
+dtx_status dtx_bbw_incr_weights_add_g(const dtx_bbw_incr *ctx, int32_t c, const double *g,
+                                      double *W_out, dtx_bbw_work *work, dtx_error *err);
+dtx_status dtx_bbw_incr_weights_replace_g(const dtx_bbw_incr *ctx, int32_t j, int32_t c,
+                                          const double *g, double *W_out, dtx_bbw_work *work,
+                                          dtx_error *err);
+
 /* Commits: appends c to the handles (add), or sets handle j to c
  * (replace), then refactors and re-solves the weights from scratch (so no
  * rounding accumulates over commits).  Not thread-safe against any other

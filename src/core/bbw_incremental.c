@@ -282,19 +282,33 @@ static dtx_status green(const dtx_bbw_incr *ctx, int32_t c, dtx_bbw_work *w, dtx
     return DTX_OK;
 }
 
+dtx_status dtx_bbw_incr_green(const dtx_bbw_incr *ctx, int32_t c, double *g, dtx_bbw_work *work,
+                              dtx_error *err)
+{
+    dtx_status st = check_candidate(ctx, c, g, work, err);
+    if (st == DTX_OK && (st = green(ctx, c, work, err)) == DTX_OK)
+        memcpy(g, work->g, (size_t)ctx->sys.nv * sizeof *g);
+    return st;
+}
+
 dtx_status dtx_bbw_incr_weights_add(const dtx_bbw_incr *ctx, int32_t c, double *W_out,
                                     dtx_bbw_work *work, dtx_error *err)
 {
+    return dtx_bbw_incr_weights_add_g(ctx, c, NULL, W_out, work, err);
+}
+
+dtx_status dtx_bbw_incr_weights_add_g(const dtx_bbw_incr *ctx, int32_t c, const double *gin,
+                                      double *W_out, dtx_bbw_work *work, dtx_error *err)
+{
     const hset *s = &ctx->s;
     int32_t nv = ctx->sys.nv, m = s->m, m1 = m + 1;
-    const double *g = work ? work->g : NULL;
+    const double *g = gin ? gin : work ? work->g : NULL;
     double *coef = work ? work->coef : NULL, gc;
     dtx_status st = check_candidate(ctx, c, W_out, work, err);
 
     if (st != DTX_OK)
         return st;
-    st = green(ctx, c, work, err);
-    if (st != DTX_OK)
+    if (!gin && (st = green(ctx, c, work, err)) != DTX_OK)
         return st;
     gc = g[c];
     for (int32_t k = 0; k < m; k++)
@@ -314,6 +328,13 @@ dtx_status dtx_bbw_incr_weights_add(const dtx_bbw_incr *ctx, int32_t c, double *
 
 dtx_status dtx_bbw_incr_weights_replace(const dtx_bbw_incr *ctx, int32_t j, int32_t c,
                                         double *W_out, dtx_bbw_work *work, dtx_error *err)
+{
+    return dtx_bbw_incr_weights_replace_g(ctx, j, c, NULL, W_out, work, err);
+}
+
+dtx_status dtx_bbw_incr_weights_replace_g(const dtx_bbw_incr *ctx, int32_t j, int32_t c,
+                                          const double *gin, double *W_out, dtx_bbw_work *work,
+                                          dtx_error *err)
 {
     const hset *s = &ctx->s;
     const dtx__biharmonic *sys = &ctx->sys;
@@ -346,8 +367,9 @@ dtx_status dtx_bbw_incr_weights_replace(const dtx_bbw_incr *ctx, int32_t j, int3
         memcpy(W_out, s->W, (size_t)nv * (size_t)m * sizeof *W_out);
         return DTX_OK;
     }
-    st = green(ctx, c, work, err);
-    if (st != DTX_OK)
+    if (gin)
+        memcpy(g, gin, (size_t)nv * sizeof *g); /* changed below */
+    else if ((st = green(ctx, c, work, err)) != DTX_OK)
         return st;
 
     /* Drop h_j: g^- = g + gamma w_j, and w^-_k = w_k - coef[k] w_j with

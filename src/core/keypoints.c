@@ -55,7 +55,17 @@ typedef struct {
     dtx_skin_params skin;
     int exact;
     dtx_skin_eval *ev; /* the round's frames, clustering and starting rotations (fast mode) */
+    /* Fast mode: candidate i's Green's function for the handle set of
+     * generation ggen[i] (-1: none) at gcache + i nv; the generation counts
+     * the commits.  A round depends on the set, so the replacement rounds
+     * between two commits share their back-substitutions.  NULL when it
+     * would take more than KP_GCACHE_MAX doubles (or memory is short). */
+    double *gcache;
+    int64_t *ggen, gen;
 } kp_ctx;
+
+/* Largest Green's function cache, in doubles (256 MiB). */
+#define KP_GCACHE_MAX ((size_t)1 << 25)
 
 /* Per-thread workspace for one evaluation with up to mmax key points. */
 typedef struct {
@@ -252,10 +262,22 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             w->handles[replace_j < 0 ? m : replace_j] = cand[i];
             st = eval_exact(c, w->handles, mm, 1, w, &v, &e);
         } else {
-            if (replace_j < 0)
-                st = dtx_bbw_incr_weights_add(incr, cand[i], w->W, w->bw, &e);
+            const double *g = NULL;
+            st = DTX_OK;
+            if (c->gcache) {
+                double *gi = c->gcache + (size_t)i * (size_t)c->nv;
+                if (c->ggen[i] != c->gen) {
+                    st = dtx_bbw_incr_green(incr, cand[i], gi, w->bw, &e);
+                    c->ggen[i] = st == DTX_OK ? c->gen : -1;
+                }
+                g = gi;
+            }
+            if (st != DTX_OK)
+                ;
+            else if (replace_j < 0)
+                st = dtx_bbw_incr_weights_add_g(incr, cand[i], g, w->W, w->bw, &e);
             else
-                st = dtx_bbw_incr_weights_replace(incr, replace_j, cand[i], w->W, w->bw, &e);
+                st = dtx_bbw_incr_weights_replace_g(incr, replace_j, cand[i], g, w->W, w->bw, &e);
             if (st == DTX_OK && dtx_bbw_clamp_normalise(w->W, c->nv, mm, NULL) < 0)
                 st = DTX_ESOLVE;
             if (st == DTX_OK)
@@ -436,6 +458,18 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         }
     if ((st = dtx_bbw_incr_create(src, res->keys, res->count, &incr, err)) != DTX_OK)
         goto fail;
+    if (!c.exact && (size_t)res->ncand * (size_t)c.nv <= KP_GCACHE_MAX) {
+        c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 0);
+        c.ggen = dtx_alloc((size_t)res->ncand, sizeof *c.ggen, 0);
+        if (!c.gcache || !c.ggen) { /* only slower without */
+            free(c.gcache);
+            free(c.ggen);
+            c.gcache = NULL;
+            c.ggen = NULL;
+        }
+        for (int32_t i = 0; c.ggen && i < res->ncand; i++)
+            c.ggen[i] = -1;
+    }
     for (int t = 0; t < nthreads; t++)
         if (work_alloc(&ws[t], &c, mmax, incr) != 0) {
             st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
@@ -459,6 +493,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             break;
         if ((st = dtx_bbw_incr_add(incr, cand[b], err)) != DTX_OK)
             goto fail;
+        c.gen++;
         res->keys[res->count++] = cand[b];
         inset[b] = 1;
         res->error = errs[b];
@@ -486,6 +521,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
                 continue;
             if ((st = dtx_bbw_incr_replace(incr, j, cand[b], err)) != DTX_OK)
                 goto fail;
+            c.gen++;
             old = res->keys[j];
             for (int32_t i = 0; i < res->ncand; i++)
                 if (cand[i] == old)
@@ -546,6 +582,8 @@ done:
     free(inset);
     free(c.feat);
     dtx_skin_eval_free(&c.ev);
+    free(c.gcache);
+    free(c.ggen);
     dtx_skin_mesh_free(&c.sm);
     dtx_bbw_incr_free(&incr);
     return st;

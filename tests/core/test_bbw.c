@@ -438,6 +438,23 @@ static void test_incremental(void)
 
     for (int t = 0; t < 6; t++) {
         int32_t c = cands[t];
+        double *g = malloc((size_t)nv * sizeof *g);
+        /* The _g variants with c's Green's function computed beforehand
+         * give the bits of the plain ones, and leave g alone. */
+        CHECK_OK(dtx_bbw_incr_green(ctx, c, g, work, &err), &err);
+        CHECK_NEAR(g[h[0]], 0.0, 0.0);
+        CHECK_DBL(g[c], >, 0.0);
+        CHECK_OK(dtx_bbw_incr_weights_add_g(ctx, c, g, Ws, work, &err), &err);
+        CHECK_OK(dtx_bbw_incr_weights_add(ctx, c, Wc, work, &err), &err);
+        CHECK(memcmp(Wc, Ws, (size_t)nv * (m + 1) * sizeof *Wc) == 0);
+        for (int32_t j = 0; j < m; j++) {
+            CHECK_OK(dtx_bbw_incr_weights_replace_g(ctx, j, c, g, Ws, work, &err), &err);
+            CHECK_OK(dtx_bbw_incr_weights_replace(ctx, j, c, Wc, work, &err), &err);
+            CHECK(memcmp(Wc, Ws, (size_t)nv * m * sizeof *Wc) == 0);
+        }
+        CHECK_OK(dtx_bbw_incr_green(ctx, c, Ws, work, &err), &err);
+        CHECK(memcmp(g, Ws, (size_t)nv * sizeof *g) == 0);
+        free(g);
         /* One more handle. */
         CHECK_OK(dtx_bbw_incr_weights_add(ctx, c, Wc, work, &err), &err);
         memcpy(hh, h, sizeof h);
