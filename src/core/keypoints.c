@@ -3,9 +3,10 @@
  *
  * Structure: a context holds what does not depend on the key points (the
  * skinning mesh, the clustering features of the frames, the candidates);
- * a round fixes the set it starts from, its clustering and the fits'
- * starting rotations, which depend on the clustering and the frames only
- * (fast mode), and evaluates every remaining candidate in parallel, each
+ * a round fixes the set it starts from, its clustering and, in fast mode,
+ * what the fits need besides the weights (dtx_skin_eval: the centred
+ * frames, their starting rotations, the covariance map), and evaluates
+ * every remaining candidate in parallel, each
  * thread with its own workspace allocated before the loop; the part's
  * errors are combined by the caller's reduce, and the smallest error wins
  * (lowest candidate index on ties).

@@ -41,6 +41,14 @@
  *    2) computed from the weights of the set the round starts from, with
  *    |S| + 1 clusters when adding and |S| when replacing, shared by every
  *    candidate of the round.
+ * The fast mode's fits and errors come from dtx_skin_eval_error (the
+ * frames centred, their starting rotations and the clusters' covariance
+ * map set up once per round; per candidate three BLAS products and the
+ * local/global iterations), the same mathematics as the exact mode's
+ * dtx_skin_fit_create + dtx_skin_fit_frames + dtx_skin_apply up to
+ * rounding.  A candidate's Green's function depends on the set only, so it
+ * is kept from one round to the next until the set changes (at most
+ * 2^25 doubles of cache; dtx_bbw_incr_green).
  * exact = 1 does what the paper does (bounded weights, dtx_bbw, and a
  * clustering per candidate); it is for measuring how far the fast path
  * moves the chosen points and errors (tests/bench/bench_keypoints.c).
