@@ -259,7 +259,14 @@ int32_t dtx_bvh_closest_from(const dtx_bvh *b, const double p[3], double max_dis
                              dtx_bvh_filter filter, const void *ctx, int32_t hint,
                              double closest[3], double *d2out)
 {
-    int32_t stack[2 * MAX_DEPTH + 8];
+    /* Each stacked node carries its box distance, computed once when it
+     * was pushed: a node is pushed only when its box is within the best
+     * distance, and skipped when popped if the best has since dropped
+     * below it (equal distances stay in for the tie rule). */
+    struct {
+        int32_t node;
+        double d2;
+    } stack[2 * MAX_DEPTH + 8];
     int sp = 0;
     int32_t best = -1;
     double best_d2 = isfinite(max_dist) ? max_dist * max_dist : INFINITY;
@@ -279,11 +286,14 @@ int32_t dtx_bvh_closest_from(const dtx_bvh *b, const double p[3], double max_dis
                 best_pt[k] = pt[k];
         }
     }
-    stack[sp++] = 0;
+    stack[sp].node = 0;
+    stack[sp++].d2 = box_dist2(&b->nodes[0], p);
     while (sp > 0) {
-        const bvh_node *n = &b->nodes[stack[--sp]];
-        if (box_dist2(n, p) > best_d2)
+        const bvh_node *n;
+        --sp;
+        if (stack[sp].d2 > best_d2)
             continue;
+        n = &b->nodes[stack[sp].node];
         if (n->count > 0) {
             for (int32_t i = n->first; i < n->first + n->count; i++) {
                 int32_t prim = b->order[i];
@@ -303,13 +313,17 @@ int32_t dtx_bvh_closest_from(const dtx_bvh *b, const double p[3], double max_dis
         } else {
             int32_t l = n->first, r = n->first + 1;
             double dl = box_dist2(&b->nodes[l], p), dr = box_dist2(&b->nodes[r], p);
-            /* Push the farther child first so the nearer one is visited first. */
-            if (dl <= dr) {
-                stack[sp++] = r;
-                stack[sp++] = l;
-            } else {
-                stack[sp++] = l;
-                stack[sp++] = r;
+            /* The farther child goes in first so the nearer one is visited
+             * first. */
+            int32_t c0 = dl <= dr ? r : l, c1 = dl <= dr ? l : r;
+            double d0 = dl <= dr ? dr : dl, d1 = dl <= dr ? dl : dr;
+            if (d0 <= best_d2) {
+                stack[sp].node = c0;
+                stack[sp++].d2 = d0;
+            }
+            if (d1 <= best_d2) {
+                stack[sp].node = c1;
+                stack[sp++].d2 = d1;
             }
         }
     }
@@ -321,6 +335,11 @@ int32_t dtx_bvh_closest_from(const dtx_bvh *b, const double p[3], double max_dis
             *d2out = best_d2;
     }
     return best;
+}
+
+const int32_t *dtx_bvh_leaf_order(const dtx_bvh *b)
+{
+    return b->order;
 }
 
 /* ------------------------------------------------------------------ */

@@ -325,12 +325,14 @@ static void assemble_tets(assembler *as, const dtx__tet *tets, int64_t ntetpairs
     }
 }
 
-dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
-                            const int32_t *fixv, const double *fixpos, int32_t nfix,
-                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
-                            const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, int *factorizations,
-                            dtx_error *err)
+/* dtx__deform_mesh, and when closest_out (nv) is not NULL, each vertex's
+ * last closest valid primitive of tbvh (-1: none in any phase). */
+static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                              const int32_t *fixv, const double *fixpos, int32_t nfix,
+                              const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                              const double *tnormals, const dtx_corr_params *prm, double *X,
+                              unsigned char *valid_out, int32_t *closest_out, int *solves,
+                              int *factorizations, dtx_error *err)
 {
     const int32_t nvar = nv + nf;
     const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
@@ -340,7 +342,7 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     cholmod_sparse *K = NULL;
     cholmod_factor *L = NULL;
     cholmod_dense *B = NULL, *Xs = NULL;
-    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL;
+    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL, *qorder = NULL;
     double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
            *cp = NULL, *wtri = NULL, *wvert = NULL;
     unsigned char *valid = NULL, *valid_prev = NULL;
@@ -359,8 +361,21 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
     valid = dtx_alloc((size_t)nv, 1, 1);
     valid_prev = dtx_alloc((size_t)nv, 1, 1);
     hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
-    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit)
+    qorder = dtx_alloc((size_t)nv, sizeof *qorder, 0);
+    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit || !qorder)
         goto nomem;
+    /* The closest-point queries go in the leaf order of a tree over the
+     * rest source: nearby vertices one after the other, so consecutive
+     * searches walk the same parts of the target's tree (the mesh's own
+     * numbering need not be spatial at all: a subdivided mesh numbers its
+     * edge midpoints after every old vertex). */
+    {
+        dtx_bvh *sb = dtx_bvh_build(S0, NULL, nv);
+        if (!sb)
+            goto nomem;
+        memcpy(qorder, dtx_bvh_leaf_order(sb), (size_t)nv * sizeof *qorder);
+        dtx_bvh_free(&sb);
+    }
     if (prm->weights == DTX_CORR_WEIGHTS_AREA) {
         wtri = dtx_alloc((size_t)nf, sizeof *wtri, 0);
         wvert = dtx_alloc((size_t)nv, sizeof *wvert, 0);
@@ -484,8 +499,12 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
         if (wc > 0.0) {
             /* Closest valid points of the current deformed source. */
             dtx_vertex_normals(X, nv, F, nf, vn);
-#pragma omp parallel for schedule(static)
-            for (int32_t v = 0; v < nv; v++) {
+            /* Each query writes its own vertex's entries only, so the
+             * schedule (dynamic: the searches' costs vary) leaves no trace
+             * in the results. */
+#pragma omp parallel for schedule(dynamic, 256)
+            for (int32_t i = 0; i < nv; i++) {
+                const int32_t v = qorder[i];
                 int32_t t;
                 valid[v] = 0;
                 if (freeidx[v] < 0)
@@ -537,6 +556,8 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                                            ? ((double *)Xs->x)[(size_t)c * nfree + freeidx[v]]
                                            : fixed[3 * (size_t)v + c];
     }
+    if (closest_out)
+        memcpy(closest_out, hit, (size_t)nv * sizeof *hit);
     goto fail; /* success: shared cleanup */
 
 nomem:
@@ -556,6 +577,7 @@ fail:
     free(valid);
     free(valid_prev);
     free(hit);
+    free(qorder);
     free(wtri);
     free(wvert);
     free(adj);
@@ -563,6 +585,17 @@ fail:
     free(kx_base);
     free(diagpos);
     return st;
+}
+
+dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                            const int32_t *fixv, const double *fixpos, int32_t nfix,
+                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                            const double *tnormals, const dtx_corr_params *prm, double *X,
+                            unsigned char *valid_out, int *solves, int *factorizations,
+                            dtx_error *err)
+{
+    return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, tets, ntetpairs, tbvh, tnormals, prm, X,
+                       valid_out, NULL, solves, factorizations, err);
 }
 
 /* ------------------------------------------------------------------ */
@@ -607,14 +640,18 @@ static int cmp_pair(const void *x, const void *y)
     return (p[0] > q[0]) - (p[0] < q[0]);
 }
 
+/* vhint (src->nv, may be NULL): a target triangle near each deformed
+ * source vertex (the last closest points), or -1; only a starting bound for
+ * the searches, which give the same pairs with or without it. */
 static dtx_status pair_triangles(const dtx_mesh *src, const double *X, const dtx_mesh *tgt,
-                                 const double *Tn, const dtx_corr_params *prm, dtx_corr *out,
-                                 dtx_error *err)
+                                 const double *Tn, const int32_t *vhint,
+                                 const dtx_corr_params *prm, dtx_corr *out, dtx_error *err)
 {
     const int32_t nfs = src->nf, nft = tgt->nf;
     const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
     double *cs = NULL, *ct = NULL, *ns = NULL, *nt = NULL;
-    int32_t *bys = NULL, *byt = NULL, *pairs = NULL;
+    int32_t *bys = NULL, *byt = NULL, *pairs = NULL, *thint = NULL;
+    const int32_t *ords, *ordt;
     unsigned char *src_ok = NULL;
     dtx_bvh *bs = NULL, *bt = NULL;
     int32_t unmatched = 0;
@@ -629,7 +666,8 @@ static dtx_status pair_triangles(const dtx_mesh *src, const double *X, const dtx
     byt = dtx_alloc((size_t)nft, sizeof *byt, 0);
     src_ok = dtx_alloc((size_t)nfs, 1, 0);
     pairs = dtx_alloc((size_t)nfs + (size_t)nft, 2 * sizeof *pairs, 0);
-    if (!cs || !ns || !ct || !nt || !bys || !byt || !src_ok || !pairs)
+    thint = dtx_alloc((size_t)nft, sizeof *thint, 0);
+    if (!cs || !ns || !ct || !nt || !bys || !byt || !src_ok || !pairs || !thint)
         goto nomem;
     centroids(X, src->F, nfs, cs);
     centroids(Tn, tgt->F, nft, ct);
@@ -643,18 +681,34 @@ static dtx_status pair_triangles(const dtx_mesh *src, const double *X, const dtx
     if (!bs || !bt)
         goto nomem;
 
-#pragma omp parallel for schedule(static)
-    for (int32_t f = 0; f < nfs; f++) {
+    /* The searches go in the leaf order of the queries' own trees (nearby
+     * centroids one after the other), each starting from a nearby guess:
+     * for a source triangle, the target triangle its first vertex was last
+     * drawn to; for a target triangle, a source triangle that chose it.
+     * Each writes its own entry only, so neither the order, the schedule
+     * nor the guesses change the pairs. */
+    ords = dtx_bvh_leaf_order(bs);
+    ordt = dtx_bvh_leaf_order(bt);
+#pragma omp parallel for schedule(dynamic, 256)
+    for (int32_t i = 0; i < nfs; i++) {
+        const int32_t f = ords[i];
         pair_filter_ctx c = {nt, ns + 3 * (size_t)f, cosmax, NULL};
-        bys[f] = src_ok[f] ? dtx_bvh_closest(bt, cs + 3 * (size_t)f, prm->max_distance,
-                                             pair_filter, &c, NULL, NULL)
+        int32_t h = vhint ? vhint[src->F[3 * (size_t)f]] : -1;
+        bys[f] = src_ok[f] ? dtx_bvh_closest_from(bt, cs + 3 * (size_t)f, prm->max_distance,
+                                                  pair_filter, &c, h, NULL, NULL)
                            : -1;
     }
-#pragma omp parallel for schedule(static) reduction(+ : unmatched)
-    for (int32_t f = 0; f < nft; f++) {
+    for (int32_t f = 0; f < nft; f++)
+        thint[f] = -1;
+    for (int32_t f = 0; f < nfs; f++)
+        if (bys[f] >= 0 && thint[bys[f]] < 0)
+            thint[bys[f]] = f;
+#pragma omp parallel for schedule(dynamic, 256) reduction(+ : unmatched)
+    for (int32_t i = 0; i < nft; i++) {
+        const int32_t f = ordt[i];
         pair_filter_ctx c = {ns, nt + 3 * (size_t)f, cosmax, src_ok};
-        int32_t s = dtx_bvh_closest(bs, ct + 3 * (size_t)f, prm->max_distance, pair_filter, &c,
-                                    NULL, NULL);
+        int32_t s = dtx_bvh_closest_from(bs, ct + 3 * (size_t)f, prm->max_distance, pair_filter,
+                                         &c, thint[f], NULL, NULL);
         if (s < 0) {
             int32_t s2;
             unmatched++;
@@ -717,6 +771,7 @@ fail:
     free(byt);
     free(src_ok);
     free(pairs);
+    free(thint);
     return st;
 }
 
@@ -736,6 +791,12 @@ dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
 
 double dtx__fit_rms(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp)
 {
+    return dtx__fit_rms_from(bvh, X, n, comp, NULL);
+}
+
+double dtx__fit_rms_from(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp,
+                         const int32_t *hint)
+{
     /* Per-vertex distances first, then a serial sum: the figure must not
      * depend on the thread count. */
     double sum = 0.0;
@@ -746,7 +807,8 @@ double dtx__fit_rms(const dtx_bvh *bvh, const double *X, int32_t n, const int32_
 #pragma omp parallel for schedule(static)
     for (int32_t v = 0; v < n; v++)
         if (!comp || comp[v] >= 0)
-            dtx_bvh_closest(bvh, X + 3 * (size_t)v, INFINITY, NULL, NULL, NULL, d2v + v);
+            dtx_bvh_closest_from(bvh, X + 3 * (size_t)v, INFINITY, NULL, NULL,
+                                 hint ? hint[v] : -1, NULL, d2v + v);
     for (int32_t v = 0; v < n; v++)
         if (!comp || comp[v] >= 0) {
             sum += d2v[v];
@@ -820,6 +882,7 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
 {
     dtx_status st;
     double *S0 = NULL, *Tn = NULL, *X = NULL, *tnormals = NULL, *vnormals = NULL;
+    int32_t *closest = NULL;
     double center[3] = {0, 0, 0}, diag = 1.0;
     dtx_bvh *tbvh = NULL, *vbvh = NULL;
     memset(out, 0, sizeof *out);
@@ -832,7 +895,8 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
     X = dtx_alloc((size_t)src->nv, 3 * sizeof *X, 0);
     Tn = dtx_alloc((size_t)tgt->nv, 3 * sizeof *Tn, 0);
     tnormals = dtx_alloc((size_t)tgt->nf, 3 * sizeof *tnormals, 0);
-    if (!S0 || !X || !Tn || !tnormals) {
+    closest = dtx_alloc((size_t)src->nv, sizeof *closest, 0);
+    if (!S0 || !X || !Tn || !tnormals || !closest) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
         goto fail;
     }
@@ -873,20 +937,26 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
             fixv[m] = markers->src[m];
             memcpy(fixpos + 3 * (size_t)m, Tn + 3 * (size_t)markers->tgt[m], 3 * sizeof *fixpos);
         }
-        st = dtx__deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
-                              vbvh ? vbvh : tbvh, vbvh ? vnormals : tnormals, prm, X, NULL,
-                              &out->solves, &out->factorizations, err);
+        st = deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
+                         vbvh ? vbvh : tbvh, vbvh ? vnormals : tnormals, prm, X, NULL, closest,
+                         &out->solves, &out->factorizations, err);
         free(fixv);
         free(fixpos);
     }
     if (st != DTX_OK)
         goto fail;
-    st = pair_triangles(src, X, tgt, Tn, prm, out, err);
+    /* The last closest points are target triangles only when they were
+     * searched on the surface (else target vertices); they are the
+     * pairing's and the fit's first guesses. */
+    if (vbvh)
+        for (int32_t v = 0; v < src->nv; v++)
+            closest[v] = -1;
+    st = pair_triangles(src, X, tgt, Tn, closest, prm, out, err);
     if (st != DTX_OK)
         goto fail;
 
     /* Fit quality: RMS distance of the deformed source to the target surface. */
-    out->fit_rms = dtx__fit_rms(tbvh, X, src->nv, NULL);
+    out->fit_rms = dtx__fit_rms_from(tbvh, X, src->nv, NULL, closest);
     if (out->fit_rms < 0.0) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
         goto fail;
@@ -909,5 +979,6 @@ fail:
     free(X);
     free(tnormals);
     free(vnormals);
+    free(closest);
     return st;
 }

@@ -28,6 +28,12 @@ dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
  * thread count.  -1 when out of memory. */
 double dtx__fit_rms(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp);
 
+/* dtx__fit_rms with each point's search started from hint[v] (n, a
+ * primitive of bvh near X[v], or -1): the same figure, bit for bit, found
+ * sooner. */
+double dtx__fit_rms_from(const dtx_bvh *bvh, const double *X, int32_t n, const int32_t *comp,
+                         const int32_t *hint);
+
 /* Puts the source S0 (nv_s x 3, caller-allocated) and the target Tn (nv_t x
  * 3) into one frame: the source aligned on the markers by a similarity
  * transform when align != 0 and there are at least 3 markers, then both

@@ -82,6 +82,14 @@ int32_t dtx_bvh_closest_from(const dtx_bvh *bvh, const double p[3], double max_d
                              dtx_bvh_filter filter, const void *ctx, int32_t hint,
                              double closest[3], double *d2);
 
+/* The tree's primitives (nf indices) in the order of its leaves, left to
+ * right: neighbours in space are mostly neighbours in this order.  Queries
+ * issued in the leaf order of a point tree over their positions touch the
+ * queried tree's nodes in far fewer distinct places from one query to the
+ * next (cache-friendly), whatever the order of the points.  Owned by the
+ * tree. */
+const int32_t *dtx_bvh_leaf_order(const dtx_bvh *bvh);
+
 /* Closest point to p on triangle (a, b, c); returns the squared distance. */
 double dtx_closest_point_triangle(const double p[3], const double a[3], const double b[3],
                                   const double c[3], double out[3]);

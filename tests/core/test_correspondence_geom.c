@@ -17,7 +17,12 @@
  *    unrefined one does with weights per area, and measurably less so with
  *    weights per element (the paper's sums), whose E_I and E_C grow 4x
  *    against E_S; and the result with weights per area is the same, bit
- *    for bit, at 1 and 2 threads.
+ *    for bit, at 1 and 2 threads (deformed source, pairs and fit);
+ *  - the tree's closest-point search against a brute-force scan of every
+ *    triangle (closest allowed one, ties to the lower index, strictly
+ *    within max_dist; same point and distance), from any hint; its leaf
+ *    order is a permutation of the primitives that keeps neighbours close;
+ *    and dtx__fit_rms_from gives dtx__fit_rms's figure with any hints.
  */
 #include "check.h"
 #include "correspondence_internal.h"
@@ -243,6 +248,7 @@ static void test_area_weights(void)
             CHECK(memcmp(a.deformed_src, b.deformed_src, sizeof(double) * 3 * fine.nv) == 0);
             CHECK(a.npairs == b.npairs &&
                   memcmp(a.pairs, b.pairs, sizeof(int32_t) * 2 * (size_t)a.npairs) == 0);
+            CHECK(a.fit_rms == b.fit_rms && a.fit_rms > 0.0);
             dtx_corr_free(&a);
             dtx_corr_free(&b);
         }
@@ -253,11 +259,143 @@ static void test_area_weights(void)
     dtx_mesh_free(&tgt);
 }
 
+static int odd_only(const void *ctx, int32_t prim)
+{
+    (void)ctx;
+    return prim % 2 == 1;
+}
+
+static double urand(uint64_t *s)
+{
+    *s = *s * 6364136223846793005ull + 1442695040888963407ull;
+    return (double)(*s >> 11) / 9007199254740992.0;
+}
+
+/* A bent, stretched level-3 icosphere with every triangle twice (exact
+ * ties); random points inside and around it. */
+static void test_bvh_brute(void)
+{
+    dtx_mesh m;
+    dtx_error err;
+    int32_t *F, nf, bad = 0, found = 0;
+    uint64_t s = 777;
+    dtx_bvh *tri, *pts;
+    CHECK_OK(dtx_gen_icosphere(3, &m, &err), &err);
+    if (check_failed_)
+        return;
+    for (int32_t v = 0; v < m.nv; v++) {
+        double *x = m.V + 3 * (size_t)v;
+        x[0] *= 1.5;
+        x[1] += 0.4 * x[0] * x[0];
+    }
+    nf = 2 * m.nf;
+    F = malloc((size_t)nf * 3 * sizeof *F);
+    CHECK(F != NULL);
+    if (!F) {
+        dtx_mesh_free(&m);
+        return;
+    }
+    memcpy(F, m.F, (size_t)m.nf * 3 * sizeof *F);
+    memcpy(F + 3 * (size_t)m.nf, m.F, (size_t)m.nf * 3 * sizeof *F);
+    tri = dtx_bvh_build(m.V, F, nf);
+    pts = dtx_bvh_build(m.V, NULL, m.nv);
+    CHECK(tri != NULL && pts != NULL);
+    for (int q = 0; tri && q < 3000; q++) {
+        double p[3], c[3], bc[3] = {0, 0, 0}, d2 = -1.0, bd2;
+        double maxd = q % 3 == 0 ? INFINITY : 0.15;
+        dtx_bvh_filter filter = q % 2 ? odd_only : NULL;
+        int32_t best = -1, r, hint;
+        for (int k = 0; k < 3; k++)
+            p[k] = (urand(&s) - 0.5) * 4.0;
+        bd2 = isfinite(maxd) ? maxd * maxd : INFINITY;
+        for (int32_t f = 0; f < nf; f++) {
+            double pt[3], e2;
+            if (filter && !filter(NULL, f))
+                continue;
+            e2 = dtx_closest_point_triangle(p, m.V + 3 * (size_t)F[3 * f],
+                                            m.V + 3 * (size_t)F[3 * f + 1],
+                                            m.V + 3 * (size_t)F[3 * f + 2], pt);
+            if (e2 < bd2 || (e2 == bd2 && best >= 0 && f < best)) {
+                bd2 = e2;
+                best = f;
+                memcpy(bc, pt, sizeof bc);
+            }
+        }
+        hint = q % 4 == 0 ? -1 : (int32_t)(urand(&s) * nf);
+        r = dtx_bvh_closest_from(tri, p, maxd, filter, NULL, hint, c, &d2);
+        found += best >= 0;
+        if (r != best || (best >= 0 && (d2 != bd2 || memcmp(c, bc, sizeof c) != 0)))
+            bad++;
+    }
+    CHECK_EQ_INT(bad, 0);
+    /* Both outcomes occur; every answer found ties with its twin, so the
+     * agreement includes the tie rule. */
+    CHECK(found > 500 && found < 3000);
+
+    /* Leaf order: a permutation, and consecutive points close together (on
+     * average under a fifth of the distance to a point taken at random). */
+    if (pts) {
+        const int32_t *ord = dtx_bvh_leaf_order(pts);
+        unsigned char *seen = calloc((size_t)m.nv, 1);
+        int perm = seen != NULL;
+        double step = 0.0, rnd = 0.0;
+        for (int32_t i = 0; seen && i < m.nv; i++) {
+            if (ord[i] < 0 || ord[i] >= m.nv || seen[ord[i]])
+                perm = 0;
+            else
+                seen[ord[i]] = 1;
+        }
+        CHECK(perm);
+        for (int32_t i = 1; perm && i < m.nv; i++) {
+            const double *a = m.V + 3 * (size_t)ord[i - 1], *b = m.V + 3 * (size_t)ord[i];
+            const double *c = m.V + 3 * (size_t)(urand(&s) * m.nv);
+            step += sqrt((a[0] - b[0]) * (a[0] - b[0]) + (a[1] - b[1]) * (a[1] - b[1]) +
+                         (a[2] - b[2]) * (a[2] - b[2]));
+            rnd += sqrt((a[0] - c[0]) * (a[0] - c[0]) + (a[1] - c[1]) * (a[1] - c[1]) +
+                        (a[2] - c[2]) * (a[2] - c[2]));
+        }
+        printf("leaf order: mean step %.4f against %.4f between random points\n",
+               step / (m.nv - 1), rnd / (m.nv - 1));
+        CHECK_DBL(step, <, 0.2 * rnd);
+        free(seen);
+    }
+
+    /* The fit from hints (the closest triangles, random ones, none) is the
+     * fit without. */
+    if (tri) {
+        const int32_t n = 500;
+        double *X = malloc((size_t)n * 3 * sizeof *X);
+        int32_t *h = malloc((size_t)n * sizeof *h);
+        CHECK(X != NULL && h != NULL);
+        if (X && h) {
+            double f0, f1, f2;
+            for (int32_t i = 0; i < n; i++) {
+                for (int k = 0; k < 3; k++)
+                    X[3 * i + k] = (urand(&s) - 0.5) * 3.0;
+                h[i] = dtx_bvh_closest(tri, X + 3 * i, INFINITY, NULL, NULL, NULL, NULL);
+            }
+            f0 = dtx__fit_rms(tri, X, n, NULL);
+            f1 = dtx__fit_rms_from(tri, X, n, NULL, h);
+            for (int32_t i = 0; i < n; i++)
+                h[i] = i % 5 == 0 ? -1 : (int32_t)(urand(&s) * nf);
+            f2 = dtx__fit_rms_from(tri, X, n, NULL, h);
+            CHECK(f0 > 0.0 && f0 == f1 && f0 == f2);
+        }
+        free(X);
+        free(h);
+    }
+    dtx_bvh_free(&tri);
+    dtx_bvh_free(&pts);
+    free(F);
+    dtx_mesh_free(&m);
+}
+
 int main(void)
 {
     test_triangle_regions();
     test_triangle_random();
     test_closest_valid();
     test_area_weights();
+    test_bvh_brute();
     return check_report();
 }
