@@ -193,6 +193,7 @@ typedef struct {
     cholmod_dense *B, *X, *Y, *E; /* cholmod_solve2's right-hand side, result, workspace */
     cholmod_dense *P, *HP;        /* Newton: a conjugate direction and H times it */
     double *mt;                   /* Newton: nfree x 3 (row-major), precond_solve's vector */
+    double *hq;                   /* Newton: prox.npairs x 4, hess_prepare's d and c */
     mc_frame fr;                  /* the frame in progress */
 } mc_worker;
 
@@ -260,6 +261,7 @@ static void fini_worker(void *plan, void *workspace)
     cholmod_free_dense(&k->P, &k->cc);
     cholmod_free_dense(&k->HP, &k->cc);
     free(k->mt);
+    free(k->hq);
     cholmod_finish(&k->cc);
     free(fr->S);
     free(fr->Sp);
@@ -972,7 +974,8 @@ static int init_worker(void *plan, void *workspace)
         k->P = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
         k->HP = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
         k->mt = dtx_alloc((size_t)p->nfree, 3 * sizeof *k->mt, 0);
-        if (!k->P || !k->HP || !k->mt)
+        k->hq = dtx_alloc((size_t)(p->prox.npairs > 0 ? p->prox.npairs : 1), 4 * sizeof *k->hq, 0);
+        if (!k->P || !k->HP || !k->mt || !k->hq)
             return 0;
     }
     if (!k->B || !fr->S || !fr->Sp || !fr->b1 || !fr->x || !fr->lx || !fr->xf || !fr->fl ||
@@ -1448,10 +1451,39 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
 #define MC_TR_BACKTRACK 4
 #define MC_ROUND 1e-12
 
+/* Each proximity pair's share of H at the frame's iterate, for the
+ * products of one Newton step: the unit direction d of x_i - x_j (0 where
+ * the pair has collapsed) and c = w3 c_ij l_ij / |x_i - x_j| (w3 c_ij
+ * then), into w->hq. */
+static void hess_prepare(const dtx_mc_plan *p, mc_worker *w)
+{
+    const mc_frame *fr = &w->fr;
+    if (!(p->w3 > 0.0))
+        return;
+    for (int64_t i = 0; i < p->prox.npairs; i++) {
+        int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
+        double d[3], n, c = p->w3p[i], *q = w->hq + 4 * (size_t)i;
+        for (int k = 0; k < 3; k++)
+            d[k] = fr->x[3 * (size_t)a + k] - fr->x[3 * (size_t)b + k];
+        n = sqrt(dot3(d, d));
+        if (n > 0.0) {
+            for (int k = 0; k < 3; k++)
+                d[k] /= n;
+            c *= p->prox.rest_len[i] / n;
+        } else {
+            d[0] = d[1] = d[2] = 0.0;
+        }
+        q[0] = d[0];
+        q[1] = d[1];
+        q[2] = d[2];
+        q[3] = c;
+    }
+}
+
 /* w->HP = H w->P (both nfree x 3, column-major): H is half E's Hessian at
- * the frame's iterate (fr->x, fr->lx), A less what A holds across each
- * proximity pair's direction and each Laplacian row's that E's second
- * derivative does not. */
+ * the frame's iterate (fr->x, fr->lx; the pairs' shares from hess_prepare),
+ * A less what A holds across each proximity pair's direction and each
+ * Laplacian row's that E's second derivative does not. */
 static void hess_apply(const dtx_mc_plan *p, mc_worker *w)
 {
     double one[2] = {1, 0}, zero[2] = {0, 0};
@@ -1462,23 +1494,15 @@ static void hess_apply(const dtx_mc_plan *p, mc_worker *w)
     cholmod_sdmult(p->A, 0, one, zero, w->P, w->HP, &w->cc);
     if (p->w3 > 0.0)
         for (int64_t i = 0; i < p->prox.npairs; i++) {
-            int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
-            int32_t fa = p->freeidx[a], fb = p->freeidx[b];
-            double d[3], u[3], n, c = p->w3p[i], du = 0.0;
-            for (int k = 0; k < 3; k++) {
-                d[k] = fr->x[3 * (size_t)a + k] - fr->x[3 * (size_t)b + k];
+            int32_t fa = p->freeidx[p->prox.pairs[2 * i]], fb = p->freeidx[p->prox.pairs[2 * i + 1]];
+            const double *q = w->hq + 4 * (size_t)i;
+            double u[3], du;
+            for (int k = 0; k < 3; k++)
                 u[k] = (fa >= 0 ? v[(size_t)k * nfree + fa] : 0.0) -
                        (fb >= 0 ? v[(size_t)k * nfree + fb] : 0.0);
-            }
-            n = sqrt(dot3(d, d));
-            if (n > 0.0) {
-                for (int k = 0; k < 3; k++)
-                    d[k] /= n;
-                c *= p->prox.rest_len[i] / n;
-                du = dot3(d, u);
-            }
+            du = dot3(q, u);
             for (int k = 0; k < 3; k++) {
-                double t = c * (u[k] - d[k] * du);
+                double t = q[3] * (u[k] - q[k] * du);
                 if (fa >= 0)
                     out[(size_t)k * nfree + fa] -= t;
                 if (fb >= 0)
@@ -1617,6 +1641,7 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             r[i] = fr->b[i] - hp[i];
         memset(dx, 0, n3 * sizeof *dx);
         memcpy(fr->b, r, n3 * sizeof *r);
+        hess_prepare(p, w);
         if (!precond_solve(p, w))
             return 0;
         memcpy(pv, w->X->x, n3 * sizeof *pv);
