@@ -79,7 +79,9 @@
  * = 0 (the first direction is the fixed-point step): until the residual in
  * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or to
  * the boundary along a direction of negative curvature or one that would
- * leave the region.  The step stands when E falls by more than MC_TR_ACCEPT
+ * leave the region (the preconditioner, and so the region's norm, is A's
+ * factor rounded to single precision: precond_solve; the first iterate's
+ * solve is exact).  The step stands when E falls by more than MC_TR_ACCEPT
  * of the model's decrease; delta shrinks to a quarter of the step when E
  * fell by less than a quarter of it and doubles after a step to the
  * boundary that E followed to 3/4; a rejected step is halved up to
@@ -98,7 +100,24 @@
  * in the trust region all 9 converge in 44-86 steps (about 700-1200
  * back-substitutions), the last few quadratically, and the shirt within
  * 11.
- * Tried, and no faster: moving whole pieces by Newton steps in their
+ * Where the time goes (pebble camel, 750 stones, 288,042 pairs, one frame
+ * at 1 thread, counted in the code): 40 steps, 34 of them to the region's
+ * boundary with 1-13 conjugate-gradient products each, the last 5 inside
+ * it with 9-26 (101 of the frame's 227); 233 back-substitutions, about 2/3
+ * of the time, and 227 Hessian products, about 1/4 (a third of that in
+ * the product with A).  The steps are many because the energy is quartic,
+ * not quadratic, in a piece sliding along its neighbour while its pairs
+ * keep their length ((sqrt(l^2 + s^2) - l)^2 ~ s^4 / 4 l^2): Newton's
+ * model sees no resistance there and reduces such a slide by about a
+ * third per step.  Hence each back-substitution is made cheaper
+ * (precond_solve: A's factor in single precision, 1.4x; the pairs' share
+ * of H once per step, hess_prepare) rather than fewer.  Tried, and no
+ * fewer products: a coarse correction with one translation per component
+ * (A^-1 + Z C^-1 Z^T, C = Z^T H Z with compressed pairs capped; the last
+ * steps took 22-40 products instead of 9-26), and halving the radius after
+ * a poor step or growing it by 1.5 instead of 4 and 2 (within the
+ * frames' spread).
+ * Tried before, and no faster: moving whole pieces by Newton steps in their
  * translations between steps (E1, E2, E4 do not change); 20 or 60
  * accelerated fixed-point iterations before the Newton steps (0.78 and
  * 0.83 s CPU a frame against 0.71 s); a looser conjugate-gradient
