@@ -107,16 +107,18 @@
  * of the time, and 227 Hessian products, about 1/4 (a third of that in
  * the product with A).  The steps are many because the energy is quartic,
  * not quadratic, in a piece sliding along its neighbour while its pairs
- * keep their length ((sqrt(l^2 + s^2) - l)^2 ~ s^4 / 4 l^2): Newton's
- * model sees no resistance there and reduces such a slide by about a
- * third per step.  Hence each back-substitution is made cheaper
+ * keep their length ((sqrt(l^2 + s^2) - l)^2 ~ s^4 / 4 l^2) and its pairs
+ * turn: a quadratic model holds only a short way along it.  Hence each
+ * back-substitution is made cheaper
  * (precond_solve: A's factor in single precision, 1.4x; the pairs' share
  * of H once per step, hess_prepare) rather than fewer.  Tried, and no
  * fewer products: a coarse correction with one translation per component
  * (A^-1 + Z C^-1 Z^T, C = Z^T H Z with compressed pairs capped; the last
- * steps took 22-40 products instead of 9-26), and halving the radius after
- * a poor step or growing it by 1.5 instead of 4 and 2 (within the
- * frames' spread).
+ * steps took 22-40 products instead of 9-26); dropping L's entries below
+ * 1e-3 (scaled by D) from the preconditioner (half of them: 735 products
+ * instead of 232); stretching an accepted step 2, 3 or 4.5 times along dx
+ * (never lowered E); and shrinking the radius by 1/2 instead of 1/4, or
+ * growing it by 1.5 instead of 2 (within the frames' spread).
  * Tried before, and no faster: moving whole pieces by Newton steps in their
  * translations between steps (E1, E2, E4 do not change); 20 or 60
  * accelerated fixed-point iterations before the Newton steps (0.78 and
