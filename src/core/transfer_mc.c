@@ -1578,12 +1578,14 @@ static int solve_a(const dtx_mc_plan *p, mc_worker *w)
  * A's factor with L's entries rounded to single precision: a
  * back-substitution reads every entry of L twice and is bound by that
  * traffic, which floats and 32-bit row indices make 8 bytes an entry
- * instead of CHOLMOD's 12.  M is the exact factorisation of a matrix
- * within float rounding of A, so it is as symmetric and positive definite
- * as A's and the conjugate gradients' recurrences hold; the arithmetic is
- * in double, in a fixed order.  (The first solve, the fixed-point step
- * x = A^-1 b, stays exact.)  Falls back to A's factor when precond_plan
- * found an unexpected factor.  0 when CHOLMOD ran out of memory. */
+ * instead of CHOLMOD's 12.  M = L~ D L~' with L~ unit lower triangular
+ * and D > 0 is symmetric positive definite however L's entries were
+ * rounded, and within float rounding of A, so the conjugate gradients'
+ * recurrences hold and it preconditions as well as A (the same steps and
+ * products on the pebble camel); the arithmetic is in double, in a fixed
+ * order.  (The first solve, the fixed-point step x = A^-1 b, stays exact;
+ * it also made w->X.)  Falls back to A's factor when precond_plan found an
+ * unexpected factor.  0 when CHOLMOD ran out of memory. */
 static int precond_solve(const dtx_mc_plan *p, mc_worker *w)
 {
     const int32_t n = p->nfree;
