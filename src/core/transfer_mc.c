@@ -79,7 +79,9 @@
  * = 0 (the first direction is the fixed-point step): until the residual in
  * A^-1's norm has fallen by MC_CG_ETA or after MC_CG_MAX products, or to
  * the boundary along a direction of negative curvature or one that would
- * leave the region.  The step stands when E falls by more than MC_TR_ACCEPT
+ * leave the region (the preconditioner, and so the region's norm, is A's
+ * factor rounded to single precision: precond_solve; the first iterate's
+ * solve is exact).  The step stands when E falls by more than MC_TR_ACCEPT
  * of the model's decrease; delta shrinks to a quarter of the step when E
  * fell by less than a quarter of it and doubles after a step to the
  * boundary that E followed to 3/4; a rejected step is halved up to
@@ -98,7 +100,26 @@
  * in the trust region all 9 converge in 44-86 steps (about 700-1200
  * back-substitutions), the last few quadratically, and the shirt within
  * 11.
- * Tried, and no faster: moving whole pieces by Newton steps in their
+ * Where the time goes (pebble camel, 750 stones, 288,042 pairs, one frame
+ * at 1 thread, counted in the code): 40 steps, 34 of them to the region's
+ * boundary with 1-13 conjugate-gradient products each, the last 5 inside
+ * it with 9-26 (101 of the frame's 227); 233 back-substitutions, about 2/3
+ * of the time, and 227 Hessian products, about 1/4 (a third of that in
+ * the product with A).  The steps are many because the energy is quartic,
+ * not quadratic, in a piece sliding along its neighbour while its pairs
+ * keep their length ((sqrt(l^2 + s^2) - l)^2 ~ s^4 / 4 l^2) and its pairs
+ * turn: a quadratic model holds only a short way along it.  Hence each
+ * back-substitution is made cheaper
+ * (precond_solve: A's factor in single precision, 1.4x; the pairs' share
+ * of H once per step, hess_prepare) rather than fewer.  Tried, and no
+ * fewer products: a coarse correction with one translation per component
+ * (A^-1 + Z C^-1 Z^T, C = Z^T H Z with compressed pairs capped; the last
+ * steps took 22-40 products instead of 9-26); dropping L's entries below
+ * 1e-3 (scaled by D) from the preconditioner (half of them: 735 products
+ * instead of 232); stretching an accepted step 2, 3 or 4.5 times along dx
+ * (never lowered E); and shrinking the radius by 1/2 instead of 1/4, or
+ * growing it by 1.5 instead of 2 (within the frames' spread).
+ * Tried before, and no faster: moving whole pieces by Newton steps in their
  * translations between steps (E1, E2, E4 do not change); 20 or 60
  * accelerated fixed-point iterations before the Newton steps (0.78 and
  * 0.83 s CPU a frame against 0.71 s); a looser conjugate-gradient
@@ -192,6 +213,8 @@ typedef struct {
     cholmod_common cc;
     cholmod_dense *B, *X, *Y, *E; /* cholmod_solve2's right-hand side, result, workspace */
     cholmod_dense *P, *HP;        /* Newton: a conjugate direction and H times it */
+    double *mt;                   /* Newton: nfree x 3 (row-major), precond_solve's vector */
+    double *hq;                   /* Newton: prox.npairs x 4, hess_prepare's d and c */
     mc_frame fr;                  /* the frame in progress */
 } mc_worker;
 
@@ -235,6 +258,13 @@ struct dtx_mc_plan {
     cholmod_common cc;
     cholmod_factor *L;
     cholmod_sparse *A;     /* Newton: the matrix (lower triangle) for H's products */
+    /* Newton's preconditioner, L D L' = A(perm, perm) with L's entries
+     * rounded to single precision (see precond_solve): column j of L below
+     * the diagonal is mrow/mval[mptr[j] .. mptr[j + 1]); mdinv: 1 / D. */
+    int64_t *mptr;
+    int32_t *mrow, *mperm;
+    float *mval;
+    double *mdinv;
     double factor_seconds;
     dtx_mc_info info;
 
@@ -251,6 +281,8 @@ static void fini_worker(void *plan, void *workspace)
     cholmod_free_dense(&k->E, &k->cc);
     cholmod_free_dense(&k->P, &k->cc);
     cholmod_free_dense(&k->HP, &k->cc);
+    free(k->mt);
+    free(k->hq);
     cholmod_finish(&k->cc);
     free(fr->S);
     free(fr->Sp);
@@ -274,6 +306,11 @@ void dtx_mc_plan_free(dtx_mc_plan **pp)
     cholmod_free_factor(&p->L, &p->cc);
     cholmod_free_sparse(&p->A, &p->cc);
     cholmod_finish(&p->cc);
+    free(p->mptr);
+    free(p->mrow);
+    free(p->mperm);
+    free(p->mval);
+    free(p->mdinv);
     dtx_proximity_free(&p->prox);
     free(p->prox_src);
     free(p->w3p);
@@ -612,6 +649,47 @@ static dtx_status build_prox_src(dtx_mc_plan *p, dtx_error *err)
     return DTX_OK;
 }
 
+/* Newton's preconditioner (precond_solve) from A's factor p->L (simplicial
+ * L D L', CHOLMOD_SIMPLICIAL without final_ll): L's entries below the
+ * diagonal as floats, 1 / D, the permutation.  0 when out of memory. */
+static int precond_plan(dtx_mc_plan *p)
+{
+    const cholmod_factor *L = p->L;
+    const int *Lp = L->p, *Li = L->i, *Lnz = L->nz, *Perm = L->Perm;
+    const double *Lx = L->x;
+    const int32_t n = p->nfree;
+    int64_t nnz = 0;
+    if (L->is_super || L->is_ll || L->xtype != CHOLMOD_REAL || (int64_t)L->n != n)
+        return 1; /* not the expected kind: precond_solve falls back to CHOLMOD */
+    for (int32_t j = 0; j < n; j++)
+        nnz += Lnz[j] - 1;
+    p->mptr = dtx_alloc((size_t)n + 1, sizeof *p->mptr, 0);
+    p->mrow = dtx_alloc((size_t)(nnz > 0 ? nnz : 1), sizeof *p->mrow, 0);
+    p->mval = dtx_alloc((size_t)(nnz > 0 ? nnz : 1), sizeof *p->mval, 0);
+    p->mperm = dtx_alloc((size_t)n, sizeof *p->mperm, 0);
+    p->mdinv = dtx_alloc((size_t)n, sizeof *p->mdinv, 0);
+    if (!p->mptr || !p->mrow || !p->mval || !p->mperm || !p->mdinv)
+        return 0;
+    nnz = 0;
+    for (int32_t j = 0; j < n; j++) {
+        p->mptr[j] = nnz;
+        p->mdinv[j] = 1.0 / Lx[Lp[j]];
+        p->mperm[j] = Perm ? Perm[j] : j;
+        for (int q = Lp[j] + 1; q < Lp[j] + Lnz[j]; q++) {
+            if (!(fabs(Lx[q]) < 1e30)) /* beyond float's range: keep CHOLMOD's */
+                goto exact;
+            p->mrow[nnz] = Li[q];
+            p->mval[nnz++] = (float)Lx[q];
+        }
+    }
+    p->mptr[n] = nnz;
+    return 1;
+exact:
+    free(p->mptr);
+    p->mptr = NULL;
+    return 1;
+}
+
 dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const int32_t *pairs,
                               int64_t npairs, const dtx_mc_params *prm, dtx_anchor anchor,
                               const int32_t *pins, const double *pin_pos, int32_t npins,
@@ -858,6 +936,8 @@ dtx_status dtx_mc_plan_create(const dtx_mesh *src, const dtx_mesh *tgt, const in
     if (p->nonlinear && prm->solver == DTX_MC_SOLVER_NEWTON) {
         p->A = K; /* kept for H's products */
         K = NULL;
+        if (!precond_plan(p))
+            goto nomem;
     }
     cholmod_free_sparse(&K, &p->cc);
     free(paired);
@@ -914,7 +994,9 @@ static int init_worker(void *plan, void *workspace)
     if (p->A) {
         k->P = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
         k->HP = cholmod_zeros((size_t)p->nfree, 3, CHOLMOD_REAL, &k->cc);
-        if (!k->P || !k->HP)
+        k->mt = dtx_alloc((size_t)p->nfree, 3 * sizeof *k->mt, 0);
+        k->hq = dtx_alloc((size_t)(p->prox.npairs > 0 ? p->prox.npairs : 1), 4 * sizeof *k->hq, 0);
+        if (!k->P || !k->HP || !k->mt || !k->hq)
             return 0;
     }
     if (!k->B || !fr->S || !fr->Sp || !fr->b1 || !fr->x || !fr->lx || !fr->xf || !fr->fl ||
@@ -1390,10 +1472,39 @@ static int frame_step(const dtx_mc_plan *p, mc_frame *fr)
 #define MC_TR_BACKTRACK 4
 #define MC_ROUND 1e-12
 
+/* Each proximity pair's share of H at the frame's iterate, for the
+ * products of one Newton step: the unit direction d of x_i - x_j (0 where
+ * the pair has collapsed) and c = w3 c_ij l_ij / |x_i - x_j| (w3 c_ij
+ * then), into w->hq. */
+static void hess_prepare(const dtx_mc_plan *p, mc_worker *w)
+{
+    const mc_frame *fr = &w->fr;
+    if (!(p->w3 > 0.0))
+        return;
+    for (int64_t i = 0; i < p->prox.npairs; i++) {
+        int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
+        double d[3], n, c = p->w3p[i], *q = w->hq + 4 * (size_t)i;
+        for (int k = 0; k < 3; k++)
+            d[k] = fr->x[3 * (size_t)a + k] - fr->x[3 * (size_t)b + k];
+        n = sqrt(dot3(d, d));
+        if (n > 0.0) {
+            for (int k = 0; k < 3; k++)
+                d[k] /= n;
+            c *= p->prox.rest_len[i] / n;
+        } else {
+            d[0] = d[1] = d[2] = 0.0;
+        }
+        q[0] = d[0];
+        q[1] = d[1];
+        q[2] = d[2];
+        q[3] = c;
+    }
+}
+
 /* w->HP = H w->P (both nfree x 3, column-major): H is half E's Hessian at
- * the frame's iterate (fr->x, fr->lx), A less what A holds across each
- * proximity pair's direction and each Laplacian row's that E's second
- * derivative does not. */
+ * the frame's iterate (fr->x, fr->lx; the pairs' shares from hess_prepare),
+ * A less what A holds across each proximity pair's direction and each
+ * Laplacian row's that E's second derivative does not. */
 static void hess_apply(const dtx_mc_plan *p, mc_worker *w)
 {
     double one[2] = {1, 0}, zero[2] = {0, 0};
@@ -1404,23 +1515,15 @@ static void hess_apply(const dtx_mc_plan *p, mc_worker *w)
     cholmod_sdmult(p->A, 0, one, zero, w->P, w->HP, &w->cc);
     if (p->w3 > 0.0)
         for (int64_t i = 0; i < p->prox.npairs; i++) {
-            int32_t a = p->prox.pairs[2 * i], b = p->prox.pairs[2 * i + 1];
-            int32_t fa = p->freeidx[a], fb = p->freeidx[b];
-            double d[3], u[3], n, c = p->w3p[i], du = 0.0;
-            for (int k = 0; k < 3; k++) {
-                d[k] = fr->x[3 * (size_t)a + k] - fr->x[3 * (size_t)b + k];
+            int32_t fa = p->freeidx[p->prox.pairs[2 * i]], fb = p->freeidx[p->prox.pairs[2 * i + 1]];
+            const double *q = w->hq + 4 * (size_t)i;
+            double u[3], du;
+            for (int k = 0; k < 3; k++)
                 u[k] = (fa >= 0 ? v[(size_t)k * nfree + fa] : 0.0) -
                        (fb >= 0 ? v[(size_t)k * nfree + fb] : 0.0);
-            }
-            n = sqrt(dot3(d, d));
-            if (n > 0.0) {
-                for (int k = 0; k < 3; k++)
-                    d[k] /= n;
-                c *= p->prox.rest_len[i] / n;
-                du = dot3(d, u);
-            }
+            du = dot3(q, u);
             for (int k = 0; k < 3; k++) {
-                double t = c * (u[k] - d[k] * du);
+                double t = q[3] * (u[k] - q[k] * du);
                 if (fa >= 0)
                     out[(size_t)k * nfree + fa] -= t;
                 if (fb >= 0)
@@ -1471,6 +1574,63 @@ static int solve_a(const dtx_mc_plan *p, mc_worker *w)
     return cholmod_solve2(CHOLMOD_A, p->L, w->B, NULL, &w->X, NULL, &w->Y, &w->E, &w->cc);
 }
 
+/* w->X = M^-1 w->B for Newton's preconditioner M = L~ D~ L~' (permuted),
+ * A's factor with L's entries rounded to single precision: a
+ * back-substitution reads every entry of L twice and is bound by that
+ * traffic, which floats and 32-bit row indices make 8 bytes an entry
+ * instead of CHOLMOD's 12.  M = L~ D L~' with L~ unit lower triangular
+ * and D > 0 is symmetric positive definite however L's entries were
+ * rounded, and within float rounding of A, so the conjugate gradients'
+ * recurrences hold and it preconditions as well as A (the same steps and
+ * products on the pebble camel); the arithmetic is in double, in a fixed
+ * order.  (The first solve, the fixed-point step x = A^-1 b, stays exact;
+ * it also made w->X.)  Falls back to A's factor when precond_plan found an
+ * unexpected factor.  0 when CHOLMOD ran out of memory. */
+static int precond_solve(const dtx_mc_plan *p, mc_worker *w)
+{
+    const int32_t n = p->nfree;
+    const int64_t *ptr = p->mptr;
+    const int32_t *row = p->mrow, *perm = p->mperm;
+    const float *val = p->mval;
+    const double *b = w->B->x;
+    double *t = w->mt, *x = w->X->x;
+    if (!ptr)
+        return solve_a(p, w);
+    for (int32_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++)
+            t[3 * (size_t)k + c] = b[(size_t)c * n + perm[k]];
+    /* L y = t, column by column. */
+    for (int32_t j = 0; j < n; j++) {
+        const double y0 = t[3 * (size_t)j], y1 = t[3 * (size_t)j + 1], y2 = t[3 * (size_t)j + 2];
+        for (int64_t q = ptr[j]; q < ptr[j + 1]; q++) {
+            double l = val[q];
+            double *ti = t + 3 * (size_t)row[q];
+            ti[0] -= l * y0;
+            ti[1] -= l * y1;
+            ti[2] -= l * y2;
+        }
+    }
+    /* D z = y, then L' x = z from the last column. */
+    for (int32_t j = n - 1; j >= 0; j--) {
+        double s0 = t[3 * (size_t)j] * p->mdinv[j], s1 = t[3 * (size_t)j + 1] * p->mdinv[j],
+               s2 = t[3 * (size_t)j + 2] * p->mdinv[j];
+        for (int64_t q = ptr[j]; q < ptr[j + 1]; q++) {
+            double l = val[q];
+            const double *ti = t + 3 * (size_t)row[q];
+            s0 -= l * ti[0];
+            s1 -= l * ti[1];
+            s2 -= l * ti[2];
+        }
+        t[3 * (size_t)j] = s0;
+        t[3 * (size_t)j + 1] = s1;
+        t[3 * (size_t)j + 2] = s2;
+    }
+    for (int32_t k = 0; k < n; k++)
+        for (int c = 0; c < 3; c++)
+            x[(size_t)c * n + perm[k]] = t[3 * (size_t)k + c];
+    return 1;
+}
+
 /* A frame after frame_start, to its end: the first solve, then Newton
  * steps in a trust region (see the file comment).  fr->it counts the first
  * solve and the Newton steps, taken or not.  Returns 0 when a solve ran out
@@ -1495,8 +1655,8 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
          * recurrences, without products with A). */
         double e, et, rz, rz0, m = 0.0, dAd = 0.0, dAp = 0.0, pAp, dmax = 0.0, rho;
         int boundary = 0;
-        /* r = b(x) - A x = -grad E / 2 (b(x) into w->B), and z = A^-1 r,
-         * the fixed-point step, as the first conjugate direction. */
+        /* r = b(x) - A x = -grad E / 2 (b(x) into w->B), and z = M^-1 r,
+         * about the fixed-point step, as the first conjugate direction. */
         e = energy12(p, fr->Sp, fr->x) + build_rhs(p, fr, 0);
         memcpy(pv, x, n3 * sizeof *pv);
         cholmod_sdmult(p->A, 0, one, zero, w->P, w->HP, &w->cc);
@@ -1504,7 +1664,8 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             r[i] = fr->b[i] - hp[i];
         memset(dx, 0, n3 * sizeof *dx);
         memcpy(fr->b, r, n3 * sizeof *r);
-        if (!solve_a(p, w))
+        hess_prepare(p, w);
+        if (!precond_solve(p, w))
             return 0;
         memcpy(pv, w->X->x, n3 * sizeof *pv);
         rz = rz0 = dotn(r, pv, n3);
@@ -1545,7 +1706,7 @@ static int newton_frame(const dtx_mc_plan *p, mc_worker *w)
             if (k + 1 == MC_CG_MAX)
                 break;
             memcpy(fr->b, r, n3 * sizeof *r);
-            if (!solve_a(p, w))
+            if (!precond_solve(p, w))
                 return 0;
             z = w->X->x;
             rzn = dotn(r, z, n3);
