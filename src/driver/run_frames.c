@@ -6,7 +6,8 @@
  * writes every rank joins each write, also ranks with no frames left; with
  * independent writes (the default) ranks agree on each block one block
  * later, and a rank with several threads overlaps its I/O with its
- * transfers (transfer_overlapped).
+ * transfers (transfer_team: the I/O thread joins the transfers when its
+ * I/O is done; transfer_overlapped for methods that deal their own groups).
  */
 #include "run_internal.h"
 
@@ -325,6 +326,92 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
     omp_set_max_active_levels(levels);
     return st;
 }
+
+/* transfer_overlapped for a method whose groups the caller may deal
+ * (team_apply): all of the rank's threads transfer block k, taking its
+ * groups from a shared counter, and the main thread (the one that makes
+ * the MPI and HDF5 calls) first writes block k - 1 and reads block k + 1,
+ * then joins them for the groups left.  With one thread doing the I/O and
+ * the method's threads the others, as in transfer_overlapped, a rank with
+ * two threads transferred on one of them, and the I/O thread sat idle for
+ * most of each block when I/O was a small share (horse -> camel).  The
+ * welding of a block's source frames (after its read) and of its results
+ * (before its write) is the I/O thread's too.  Blocks, groups and their
+ * arithmetic are those of the plain loop, so results are bitwise the
+ * same whichever thread takes a group. */
+static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                int64_t nseg_max, dtx_error *err)
+{
+    result_ctx *rc = RESULT(r, t, s);
+    const target_ctx *tc = &r->tg[t];
+    const seq_ctx *sc = &r->sq[s];
+    const int64_t nframes = rc->res.nframes;
+    const int nthreads = omp_get_max_threads();
+    block_agree ba;
+    int64_t f0, n;
+    double t0 = run_wtime();
+    dtx_status st;
+    memset(&ba, 0, sizeof ba);
+    block_range(r, todo, seg, nseg, nframes, 0, &f0, &n);
+    st = r->method->team_prepare(plan, err);
+    if (st == DTX_OK && n > 0)
+        st = dtx_h5_seq_read(&sc->seq, f0, n, fb[0].Xs, err);
+    if (st == DTX_OK)
+        dtx_weld_source_frames(&r->src_weld, fb[0].Xs, n);
+    r->tm.read += run_wtime() - t0;
+    for (int64_t k = 0; k <= nseg_max; k++) {
+        frame_buffers *cur = &fb[k % 2], *other = &fb[(k + 1) % 2];
+        int64_t pf0 = 0, pn = 0, nf0 = 0, nn = 0, next = 0;
+        dtx_status st_io = DTX_OK;
+        double s_rd = 0, s_wr = 0, a;
+        if (st == DTX_OK) {
+            if (k > 0)
+                block_range(r, todo, seg, nseg, nframes, k - 1, &pf0, &pn);
+            block_range(r, todo, seg, nseg, nframes, k, &f0, &n);
+            block_range(r, todo, seg, nseg, nframes, k + 1, &nf0, &nn);
+            a = run_wtime();
+#pragma omp parallel num_threads(nthreads)
+            {
+                if (omp_get_thread_num() == 0) {
+                    double w0 = omp_get_wtime(), w1;
+                    if (pn > 0) {
+                        /* twins identical, in the asset's order */
+                        dtx_weld_result_frames(&tc->weld, other->Xt, pn);
+                        st_io = write_block(r, rc, tc, sc, pf0, pn, other, 0, err);
+                    }
+                    w1 = omp_get_wtime();
+                    if (st_io == DTX_OK && nn > 0) {
+                        st_io = dtx_h5_seq_read(&sc->seq, nf0, nn, other->Xs, err);
+                        if (st_io == DTX_OK)
+                            dtx_weld_source_frames(&r->src_weld, other->Xs, nn);
+                    }
+                    s_wr = w1 - w0;
+                    s_rd = omp_get_wtime() - w1;
+                }
+                if (n > 0)
+                    r->method->team_apply(plan, n, cur->Xs, cur->Xt, cur->info, &next);
+            }
+            r->tm.read += s_rd;
+            r->tm.write += s_wr;
+            r->tm.transfer += run_wtime() - a;
+            st = st_io;
+            for (int64_t i = 0; i < n; i++)
+                cur->res[i] = cur->info[i].residual;
+            if (st == DTX_OK && n > 0)
+                st = check_block(r, rc, tc, sc, f0, n, cur->Xs, cur->res, cur->info,
+                                 cur->fstats, err);
+            if (st == DTX_OK && k == nseg_max / 2)
+                st = run_injected_fault(r, "transfer", err);
+        }
+        /* A rank that failed goes on through the loop doing nothing until
+         * the others have heard of it, one step later. */
+        if ((st = block_agree_wait(r, &ba, st, err)) != DTX_OK && ba.sum[0] > 0)
+            break;
+        block_agree_post(r, &ba, st, st == DTX_OK ? pn : 0);
+    }
+    return block_agree_wait(r, &ba, st, err);
+}
 #else
 static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, frame_buffers *fb,
                                       const int64_t *todo, const int64_t *seg, int64_t nseg,
@@ -333,6 +420,13 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
     (void)r, (void)t, (void)s, (void)plan, (void)fb, (void)todo, (void)seg, (void)nseg;
     (void)nseg_max;
     return dtx_seterr(err, DTX_EINVAL, "no threads to overlap I/O with");
+}
+
+static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                int64_t nseg_max, dtx_error *err)
+{
+    return transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
 }
 #endif
 
@@ -376,7 +470,9 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
     }
 
     if (nsets == 2) {
-        st = transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
+        st = r->method->team_apply
+                 ? transfer_team(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err)
+                 : transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
         goto done;
     }
     /* Collective writes need every rank there and none failed: a blocking
