@@ -58,16 +58,18 @@ check "transfer fault: the partial is said to be kept, with its frames done, for
 sed -e 's/out.h5/thr.h5/' -e 's/"block_frames": 8/"block_frames": 16/' "$W/job.json" \
     > "$W/thr.json"
 set +e
-DTX_FAULT="transfer@0" OMP_NUM_THREADS=2 timeout 60 "${mpi[@]}" -np 1 -x DTX_FAULT \
+DTX_FAULT="transfer@1" OMP_NUM_THREADS=2 timeout 60 "${mpi[@]}" -np 2 -x DTX_FAULT \
     "$DTX" run "$W/thr.json" > "$W/thr.out" 2> "$W/thr.err"
 rc=$?
 set -e
-check "transfer fault at 2 threads: non-zero exit ($rc), not a timeout" \
+check "transfer fault on rank 1 of 2, 2 threads each: non-zero exit ($rc), not a timeout" \
     test "$rc" -ne 0 -a "$rc" -ne 124
+check "transfer fault at 2 threads: rank 1's message" \
+    grep -q "rank 1.*injected fault at phase transfer" "$W/thr.err"
 check "transfer fault at 2 threads: no OUTPUT, the partial kept" \
     test ! -e "$W/thr.h5" -a -e "$W/thr.h5.partial"
-OMP_NUM_THREADS=2 "${mpi[@]}" -np 2 "$DTX" run --quiet --resume "$W/thr.json"
-check "resumed at 2 ranks x 2 threads: bitwise the 1-thread result" \
+OMP_NUM_THREADS=3 "${mpi[@]}" -np 1 "$DTX" run --quiet --resume "$W/thr.json"
+check "resumed at 1 rank x 3 threads: bitwise the 1-thread result" \
     "$DTX" diff "$W/out.h5" "$W/thr.h5" /results/lion/poses --tol 0
 
 # Disk full, simulated by a file-size limit below the result's size: the run
