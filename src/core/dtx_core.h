@@ -251,6 +251,20 @@ void dtx_sp04_plan_free(dtx_sp04_plan **plan);
 dtx_status dtx_sp04_apply(dtx_sp04_plan *plan, int64_t nframes, const double *Xs, double *Xt,
                           double *residual, dtx_error *err);
 
+/* For callers that deal the groups to threads themselves (a team of
+ * threads that also has other work, such as I/O): dtx_sp04_plan_workers
+ * makes the per-thread scratch of apply, one workspace per thread of the
+ * calling context (omp_get_max_threads(), 1 without OpenMP); not
+ * thread-safe, call it before the parallel region; fails only with
+ * DTX_ENOMEM.  Then dtx_sp04_apply_group transfers one group of nfr (1 ..
+ * DTX_SP04_SOLVE_GROUP) frames Xs (nfr x nv_s x 3) into Xt (nfr x nv_t x 3)
+ * and residual (nfr, may be NULL) on workspace `worker` (0 <= worker <
+ * the count above); calls on distinct workspaces may run at once on one
+ * plan.  The bits are those of dtx_sp04_apply on the same frames. */
+dtx_status dtx_sp04_plan_workers(dtx_sp04_plan *plan, dtx_error *err);
+void dtx_sp04_apply_group(dtx_sp04_plan *plan, int worker, int64_t nfr, const double *Xs,
+                          double *Xt, double *residual);
+
 /* Sizes of the plan, for callers that allocate buffers. */
 int32_t dtx_sp04_plan_nv_src(const dtx_sp04_plan *plan);
 int32_t dtx_sp04_plan_nv_tgt(const dtx_sp04_plan *plan);

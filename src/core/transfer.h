@@ -165,6 +165,21 @@ typedef struct dtx_transfer_method {
      * block size allocate once.  Not thread-safe on one plan. */
     dtx_status (*apply)(void *plan, int64_t nframes, const double *Xs, double *Xt,
                         dtx_frame_info *info, dtx_error *err);
+    /* NULL, or apply with the groups (of solve_group frames) dealt by the
+     * caller's own team of threads, for a caller whose threads have other
+     * work too (a rank's I/O thread joins the transfers when its I/O is
+     * done).  team_prepare, before the parallel region, readies the plan
+     * for omp_get_max_threads() threads (errors as apply's).  Then any
+     * thread of the region may call team_apply on one block (the same
+     * arguments in every call) whenever it is free: each call takes the
+     * block's groups one at a time from *next (shared, zeroed before the
+     * region, taken atomically) until none are left, transfers each on the
+     * calling thread with that thread's scratch (omp_get_thread_num()),
+     * and returns.  When every call has returned, Xt and info hold what
+     * apply gives, bit for bit. */
+    dtx_status (*team_prepare)(void *plan, dtx_error *err);
+    void (*team_apply)(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                       dtx_frame_info *info, int64_t *next);
     /* Frees *plan (NULL allowed) and sets it to NULL. */
     void (*plan_free)(void **plan);
     /* What the plan holds, for a report: lines separated by '\n' (no final

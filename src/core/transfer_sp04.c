@@ -56,6 +56,7 @@
 #include "transfer.h"
 #include "vec3.h"
 
+#include <assert.h>
 #include <cholmod.h>
 #include <math.h>
 #include <stdio.h>
@@ -1185,12 +1186,31 @@ int dtx_sp04_plan_use_avx2(dtx_sp04_plan *p, int on)
     return p->avx2;
 }
 
+dtx_status dtx_sp04_plan_workers(dtx_sp04_plan *p, dtx_error *err)
+{
+    return dtx__workers_ensure(&p->workers, sizeof(worker), p, init_worker, fini_worker,
+                               "solver workspaces", err);
+}
+
+void dtx_sp04_apply_group(dtx_sp04_plan *p, int wk, int64_t nfr, const double *Xs, double *Xt,
+                          double *residual)
+{
+    worker *w;
+    assert(wk >= 0 && wk < p->workers.n && nfr >= 1 && nfr <= DTX_SOLVE_GROUP);
+    w = dtx__worker(&p->workers, wk);
+#ifdef DTX_SP04_AVX2_VARIANT
+    if (p->avx2)
+        solve_group_avx2(p, w, nfr, Xs, Xt, residual);
+    else
+#endif
+        solve_group_baseline(p, w, nfr, Xs, Xt, residual);
+}
+
 dtx_status dtx_sp04_apply(dtx_sp04_plan *p, int64_t nframes, const double *Xs, double *Xt,
                           double *residual, dtx_error *err)
 {
     int64_t ngroups = (nframes + DTX_SOLVE_GROUP - 1) / DTX_SOLVE_GROUP;
-    dtx_status st = dtx__workers_ensure(&p->workers, sizeof(worker), p, init_worker, fini_worker,
-                                        "solver workspaces", err);
+    dtx_status st = dtx_sp04_plan_workers(p, err);
     if (st != DTX_OK)
         return st;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -1198,17 +1218,11 @@ dtx_status dtx_sp04_apply(dtx_sp04_plan *p, int64_t nframes, const double *Xs, d
         int tid = 0;
         int64_t f0 = g * DTX_SOLVE_GROUP;
         int64_t nfr = nframes - f0 < DTX_SOLVE_GROUP ? nframes - f0 : DTX_SOLVE_GROUP;
-        const double *xs = Xs + (size_t)f0 * 3 * p->nv_s;
-        double *xt = Xt + (size_t)f0 * 3 * p->nv_t, *res = residual ? residual + f0 : NULL;
 #ifdef _OPENMP
         tid = omp_get_thread_num();
 #endif
-#ifdef DTX_SP04_AVX2_VARIANT
-        if (p->avx2)
-            solve_group_avx2(p, dtx__worker(&p->workers, tid), nfr, xs, xt, res);
-        else
-#endif
-            solve_group_baseline(p, dtx__worker(&p->workers, tid), nfr, xs, xt, res);
+        dtx_sp04_apply_group(p, tid, nfr, Xs + (size_t)f0 * 3 * p->nv_s,
+                             Xt + (size_t)f0 * 3 * p->nv_t, residual ? residual + f0 : NULL);
     }
     return DTX_OK;
 }
@@ -1302,6 +1316,42 @@ static dtx_status sp04_method_apply(void *plan, int64_t nframes, const double *X
     return st;
 }
 
+static dtx_status sp04_method_team_prepare(void *plan, dtx_error *err)
+{
+    sp04_method_plan *p = plan;
+    return dtx_sp04_plan_workers(p->plan, err);
+}
+
+static void sp04_method_team_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
+                                   dtx_frame_info *info, int64_t *next)
+{
+    sp04_method_plan *p = plan;
+    const int64_t ngroups = (nframes + DTX_SOLVE_GROUP - 1) / DTX_SOLVE_GROUP;
+    const int32_t nv_s = p->plan->nv_s, nv_t = p->plan->nv_t;
+    int tid = 0;
+#ifdef _OPENMP
+    tid = omp_get_thread_num();
+#endif
+    for (;;) {
+        double res[DTX_SOLVE_GROUP];
+        int64_t g, f0, nfr;
+#ifdef _OPENMP
+#pragma omp atomic capture
+#endif
+        g = (*next)++;
+        if (g >= ngroups)
+            return;
+        f0 = g * DTX_SOLVE_GROUP;
+        nfr = nframes - f0 < DTX_SOLVE_GROUP ? nframes - f0 : DTX_SOLVE_GROUP;
+        dtx_sp04_apply_group(p->plan, tid, nfr, Xs + (size_t)f0 * 3 * nv_s,
+                             Xt + (size_t)f0 * 3 * nv_t, res);
+        for (int64_t i = 0; i < nfr; i++) {
+            info[f0 + i].residual = res[i];
+            info[f0 + i].iterations = info[f0 + i].converged = info[f0 + i].inverted = -1;
+        }
+    }
+}
+
 static void sp04_method_describe(const void *plan, char *buf, size_t size)
 {
     (void)plan;
@@ -1318,6 +1368,8 @@ const dtx_transfer_method dtx_method_sp04 = {
     .uses_pairs = 1,
     .plan_create = sp04_method_create,
     .apply = sp04_method_apply,
+    .team_prepare = sp04_method_team_prepare,
+    .team_apply = sp04_method_team_apply,
     .plan_free = sp04_method_free,
     .describe = sp04_method_describe,
 };

@@ -6,11 +6,13 @@
  * writes every rank joins each write, also ranks with no frames left; with
  * independent writes (the default) ranks agree on each block one block
  * later, and a rank with several threads overlaps its I/O with its
- * transfers (transfer_overlapped).
+ * transfers (transfer_team: the I/O thread joins the transfers when its
+ * I/O is done; transfer_overlapped for methods that deal their own groups).
  */
 #include "run_internal.h"
 
 #include <math.h>
+#include <sched.h>
 #ifdef _OPENMP
 #include <omp.h>
 #endif
@@ -325,6 +327,162 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
     omp_set_max_active_levels(levels);
     return st;
 }
+
+/* transfer_overlapped for a method whose groups the caller may deal
+ * (team_apply), without a pause between blocks: one parallel region for
+ * the whole result, and three sets of block buffers.  Every thread calls
+ * team_apply on each of the rank's blocks in turn (taking the block's
+ * groups from its own counter while any are left); the main thread (the
+ * one that makes the MPI and HDF5 calls) in step b first reads block b + 1
+ * (into the set that block b - 2 was written from), then joins the
+ * transfer of block b, then, once every thread's call on block b - 1 has
+ * returned, checks and writes block b - 1.  The other threads go on to
+ * block b + 1 as soon as block b has no group left, so no thread waits for
+ * the slowest group of a block, as at the end of a parallel region per
+ * block; the main thread rarely waits, as block b - 1 has had a whole
+ * block's time to finish.  With one thread doing the I/O and the method's
+ * threads the others (transfer_overlapped), a rank with two threads
+ * transferred on one of them and the I/O thread sat idle for most of each
+ * block when I/O was a small share (horse -> camel).  The welding of a
+ * block's source frames (after its read) and of its results (before its
+ * write) is the main thread's.  Steps, agreements and fault points are
+ * those of transfer_overlapped (step k writes block k - 1), blocks, groups
+ * and their arithmetic those of the plain loop, so results are bitwise
+ * the same whichever thread takes a group. */
+static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                int64_t nseg_max, dtx_error *err)
+{
+    result_ctx *rc = RESULT(r, t, s);
+    const target_ctx *tc = &r->tg[t];
+    const seq_ctx *sc = &r->sq[s];
+    const int64_t nframes = rc->res.nframes;
+    const int nthreads = omp_get_max_threads();
+    /* Per block: the group counter team_apply takes from, and the threads
+     * whose call on it has returned. */
+    int64_t *next = dtx_alloc((size_t)nseg + 1, sizeof *next, 1);
+    int *finished = dtx_alloc((size_t)nseg + 1, sizeof *finished, 1);
+    int64_t ready = 0; /* blocks read, published by the main thread */
+    int abort_all = 0; /* the main thread stopped: the others stop too */
+    block_agree ba;
+    double t0 = run_wtime(), s_rd = 0, s_wr = 0;
+    dtx_status st;
+    memset(&ba, 0, sizeof ba);
+    st = next && finished ? r->method->team_prepare(plan, err)
+                          : dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    if (st == DTX_OK && nseg > 0) {
+        int64_t f0, n;
+        block_range(r, todo, seg, nseg, nframes, 0, &f0, &n);
+        st = dtx_h5_seq_read(&sc->seq, f0, n, fb[0].Xs, err);
+        if (st == DTX_OK) {
+            dtx_weld_source_frames(&r->src_weld, fb[0].Xs, n);
+            ready = 1;
+        }
+    }
+    r->tm.read += run_wtime() - t0;
+    t0 = run_wtime();
+#pragma omp parallel num_threads(nthreads)
+    {
+        const int nt = omp_get_num_threads();
+        if (omp_get_thread_num() != 0) {
+            /* The other threads: each block's groups as it becomes ready. */
+            for (int64_t b = 0; b < nseg; b++) {
+                int64_t f0, n, rd;
+                int stop;
+                for (;;) {
+#pragma omp atomic read seq_cst
+                    rd = ready;
+#pragma omp atomic read seq_cst
+                    stop = abort_all;
+                    if (rd > b || stop)
+                        break;
+                    sched_yield();
+                }
+                if (stop)
+                    break;
+                block_range(r, todo, seg, nseg, nframes, b, &f0, &n);
+                r->method->team_apply(plan, n, fb[b % 3].Xs, fb[b % 3].Xt, fb[b % 3].info,
+                                      &next[b]);
+#pragma omp atomic update seq_cst
+                finished[b]++;
+            }
+        } else {
+            /* The main thread: step k reads block k + 1, transfers block
+             * k with the others, and writes block k - 1. */
+            for (int64_t k = 0; k <= nseg_max; k++) {
+                int64_t f0 = 0, n = 0, pf0 = 0, pn = 0;
+                if (st == DTX_OK && k + 1 < nseg) {
+                    frame_buffers *nx = &fb[(k + 1) % 3];
+                    double a = omp_get_wtime();
+                    block_range(r, todo, seg, nseg, nframes, k + 1, &f0, &n);
+                    st = dtx_h5_seq_read(&sc->seq, f0, n, nx->Xs, err);
+                    if (st == DTX_OK) {
+                        dtx_weld_source_frames(&r->src_weld, nx->Xs, n);
+#pragma omp atomic write seq_cst
+                        ready = k + 2;
+                    }
+                    s_rd += omp_get_wtime() - a;
+                }
+                if (st == DTX_OK && k < nseg) {
+                    block_range(r, todo, seg, nseg, nframes, k, &f0, &n);
+                    r->method->team_apply(plan, n, fb[k % 3].Xs, fb[k % 3].Xt, fb[k % 3].info,
+                                          &next[k]);
+#pragma omp atomic update seq_cst
+                    finished[k]++;
+                }
+                if (st == DTX_OK && k > 0 && k - 1 < nseg) {
+                    frame_buffers *pv = &fb[(k - 1) % 3];
+                    double a;
+                    for (;;) {
+                        int fin;
+#pragma omp atomic read seq_cst
+                        fin = finished[k - 1];
+                        if (fin >= nt)
+                            break;
+                        sched_yield();
+                    }
+                    a = omp_get_wtime();
+                    block_range(r, todo, seg, nseg, nframes, k - 1, &pf0, &pn);
+                    for (int64_t i = 0; i < pn; i++)
+                        pv->res[i] = pv->info[i].residual;
+                    st = check_block(r, rc, tc, sc, pf0, pn, pv->Xs, pv->res, pv->info,
+                                     pv->fstats, err);
+                    if (st == DTX_OK) {
+                        /* twins identical, in the asset's order */
+                        dtx_weld_result_frames(&tc->weld, pv->Xt, pn);
+                        st = write_block(r, rc, tc, sc, pf0, pn, pv, 0, err);
+                    }
+                    s_wr += omp_get_wtime() - a;
+                }
+                if (st == DTX_OK && k == nseg_max / 2)
+                    st = run_injected_fault(r, "transfer", err);
+                if (st != DTX_OK) {
+#pragma omp atomic write seq_cst
+                    abort_all = 1;
+                }
+                /* A rank that failed goes on through the steps doing
+                 * nothing until the others have heard of it, one step
+                 * later. */
+                if ((st = block_agree_wait(r, &ba, st, err)) != DTX_OK && ba.sum[0] > 0) {
+#pragma omp atomic write seq_cst
+                    abort_all = 1;
+                    break;
+                }
+                block_agree_post(r, &ba, st, st == DTX_OK ? pn : 0);
+            }
+        }
+    }
+    /* Read and write: the main thread's I/O; transfer: the rest of the
+     * region (every thread transferring, the main thread too when not in
+     * I/O). */
+    r->tm.read += s_rd;
+    r->tm.write += s_wr;
+    r->tm.transfer += run_wtime() - t0 - s_rd - s_wr;
+    st = block_agree_wait(r, &ba, st, err);
+    free(next);
+    free(finished);
+    return st;
+}
 #else
 static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, frame_buffers *fb,
                                       const int64_t *todo, const int64_t *seg, int64_t nseg,
@@ -333,6 +491,13 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
     (void)r, (void)t, (void)s, (void)plan, (void)fb, (void)todo, (void)seg, (void)nseg;
     (void)nseg_max;
     return dtx_seterr(err, DTX_EINVAL, "no threads to overlap I/O with");
+}
+
+static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_buffers *fb,
+                                const int64_t *todo, const int64_t *seg, int64_t nseg,
+                                int64_t nseg_max, dtx_error *err)
+{
+    return transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
 }
 #endif
 
@@ -375,8 +540,10 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
             goto done;
     }
 
-    if (nsets == 2) {
-        st = transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
+    if (nsets >= 2) {
+        st = r->method->team_apply
+                 ? transfer_team(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err)
+                 : transfer_overlapped(r, t, s, plan, fb, todo, seg, nseg, nseg_max, err);
         goto done;
     }
     /* Collective writes need every rank there and none failed: a blocking
@@ -515,7 +682,7 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
 {
     dtx_status st = DTX_OK;
     int32_t maxnv = 0;
-    frame_buffers fb[2];
+    frame_buffers fb[3];
     int nsets;
     memset(fb, 0, sizeof fb);
     /* Blocks are whole solve groups, so frame arithmetic never depends on
@@ -525,15 +692,19 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
         fb[0].block += r->align - fb[0].block % r->align;
     for (int t = 0; t < r->nt; t++)
         maxnv = r->tg[t].weld.nv > maxnv ? r->tg[t].weld.nv : maxnv;
-    fb[1].block = fb[0].block;
-    /* A second set of buffers when a rank's I/O overlaps its transfers:
+    fb[1].block = fb[2].block = fb[0].block;
+    /* A second set of buffers when a rank's I/O overlaps its transfers
+     * (a third when the method lets the rank's threads deal its groups,
+     * see transfer_team):
      * methods that solve frames in groups (sp04 and the methods built on
      * its solve), whose blocks take milliseconds, so that I/O is a large
      * share.  A method that deals single frames (springs: seconds each)
      * keeps all of the rank's threads for them: overlapped, its frames ran
      * on the one remaining thread, and 1 rank x 2 threads of driver.springs
      * took 282 s instead of 10 s. */
-    nsets = !r->job.collective_io && omp_max_threads() > 1 && r->align > 1 ? 2 : 1;
+    nsets = !r->job.collective_io && omp_max_threads() > 1 && r->align > 1
+                ? (r->method->team_apply ? 3 : 2)
+                : 1;
     st = DTX_OK;
     for (int b = 0; b < nsets && st == DTX_OK; b++)
         st = buffers_alloc(r, maxnv, &fb[b], err);
@@ -566,7 +737,7 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
             goto done;
     }
 done:
-    for (int b = 0; b < 2; b++) {
+    for (int b = 0; b < 3; b++) {
         free(fb[b].Xs);
         free(fb[b].Xt);
         free(fb[b].res);

@@ -52,6 +52,26 @@ check "transfer fault: the partial is said to be kept, with its frames done, for
     grep -q "out.h5.partial is kept: [0-9]* of 27 frames done; once the cause above is fixed, \`dtx run --resume .*job.json\` continues" \
     "$W/transfer.err"
 
+# The same fault where a rank's threads share its blocks (the I/O thread
+# joins the transfers): a clean failure, and --resume under other rank and
+# thread counts gives the 1-thread result bit for bit.
+sed -e 's/out.h5/thr.h5/' -e 's/"block_frames": 8/"block_frames": 16/' "$W/job.json" \
+    > "$W/thr.json"
+set +e
+DTX_FAULT="transfer@1" OMP_NUM_THREADS=2 timeout 60 "${mpi[@]}" -np 2 -x DTX_FAULT \
+    "$DTX" run "$W/thr.json" > "$W/thr.out" 2> "$W/thr.err"
+rc=$?
+set -e
+check "transfer fault on rank 1 of 2, 2 threads each: non-zero exit ($rc), not a timeout" \
+    test "$rc" -ne 0 -a "$rc" -ne 124
+check "transfer fault at 2 threads: rank 1's message" \
+    grep -q "rank 1.*injected fault at phase transfer" "$W/thr.err"
+check "transfer fault at 2 threads: no OUTPUT, the partial kept" \
+    test ! -e "$W/thr.h5" -a -e "$W/thr.h5.partial"
+OMP_NUM_THREADS=3 "${mpi[@]}" -np 1 "$DTX" run --quiet --resume "$W/thr.json"
+check "resumed at 1 rank x 3 threads: bitwise the 1-thread result" \
+    "$DTX" diff "$W/out.h5" "$W/thr.h5" /results/lion/poses --tol 0
+
 # Disk full, simulated by a file-size limit below the result's size: the run
 # fails with a message naming the file, the old output survives.
 set +e
