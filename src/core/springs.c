@@ -1662,15 +1662,6 @@ static double barrier_max_step(const level *L, const barrier_terms *bt, const do
     return amax;
 }
 
-/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
- * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
- * Newton retries and reports a failed frame itself, so no message. */
-static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc)
-{
-    return dtx__chol_factorize(A, DTX__CHOL_NO_TEAMS, "the springs Newton system", NULL, L, cc,
-                               NULL);
-}
-
 /* Newton switches to the exact Hessian after a full step that moved no
  * vertex by more than this fraction of the diagonal. */
 #define EXACT_HESSIAN_STEP 1e-2
@@ -1684,10 +1675,22 @@ static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common
 
 typedef struct {
     int iterations;
+    int factorizations; /* numeric factorisations, failed ones included */
     int converged;
     int failed; /* out of memory or the factorisation failed */
     double energy_start, energy;
 } newton_result;
+
+/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
+ * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
+ * Newton retries and reports a failed frame itself, so no message. */
+static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc,
+                            newton_result *res)
+{
+    res->factorizations++;
+    return dtx__chol_factorize(A, DTX__CHOL_NO_TEAMS, "the springs Newton system", NULL, L, cc,
+                               NULL);
+}
 
 /* Projected Newton with a backtracking line search on level L from lw->x
  * (see the file comment); fixed vertices stay.  free_translation: the
@@ -1852,6 +1855,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
     cholmod_sparse A;
 
     res->iterations = 0;
+    res->factorizations = 0;
     res->converged = 0;
     res->failed = 0;
     res->energy_start = e;
@@ -1875,7 +1879,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             res->converged = 1;
             break;
         }
-        fst = factorize(&A, lw->L, cc);
+        fst = factorize(&A, lw->L, cc, res);
         if (fst == DTX_ESOLVE && theta > 0.0 && bt) {
             /* With the barrier the solve leaves the turns out, and where the
              * barrier pushes, the exact Hessian is slightly negative along
@@ -1889,7 +1893,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
                     for (int c = 0; c < 3; c++)
                         lw->Hx[L->colp[3 * f + c + 1] - 1] += d;
                 added += d;
-                fst = factorize(&A, lw->L, cc);
+                fst = factorize(&A, lw->L, cc, res);
             }
         }
         while (fst == DTX_ESOLVE && theta > 0.0) {
@@ -1897,7 +1901,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
              * less of it, down to the projected Hessian. */
             theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
             assemble_all(L, lw, bt, lw->x, theta);
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         /* The projected H + mu I is positive definite in exact arithmetic;
          * should rounding say otherwise, a larger mu is tried. */
@@ -1905,7 +1909,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += 100.0 * L->mu * attempt;
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         /* A barrier term that has grown huge can defeat that: shifts of
          * 1e-4 and 1e-1 of the mean diagonal (a shorter, still descending
@@ -1914,7 +1918,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += sh * 2.0 * L->kmean;
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         if (fst == DTX_ESOLVE && bt) {
             /* Rounding in a barrier term that has grown huge: the iterate
@@ -2180,7 +2184,8 @@ static int linear_start(const level *L, level_work *lw, const double *rot, const
         }
     }
     hessian_view(L, lw->Hx, &A);
-    if (factorize(&A, lw->L, cc) != DTX_OK ||
+    if (dtx__chol_factorize(&A, DTX__CHOL_NO_TEAMS, "the springs linear start", NULL, lw->L, cc,
+                            NULL) != DTX_OK ||
         !cholmod_solve2(CHOLMOD_A, lw->L, lw->B, NULL, &lw->X, NULL, &lw->Y, &lw->E, cc))
         return 0;
     sol = lw->X->x;
@@ -2520,6 +2525,7 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
             goto nan;
     }
     fi.iterations = nr.iterations;
+    fi.factorizations = nr.factorizations;
     fi.coarse_iterations = coarse_it;
     fi.converged = nr.converged;
     fi.energy_start = nr.energy_start;

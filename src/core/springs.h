@@ -150,8 +150,11 @@ typedef struct {
 /* Per frame, from dtx_springs_apply. */
 typedef struct {
     int32_t iterations;        /* Newton steps on the fine level (one numeric
-                                  factorisation each; two when the exact Hessian
-                                  was tried and found indefinite) */
+                                  factorisation each; more when one with part of
+                                  the exact Hessian was tried and found
+                                  indefinite) */
+    int32_t factorizations;    /* numeric factorisations on the fine level, the
+                                  failed ones included (the cost of a frame) */
     int32_t coarse_iterations; /* on the coarse levels, summed */
     int32_t converged;         /* 1 when the fine level met its stopping test; 0 when
                                   max_iter ran out, the line search stalled or
