@@ -1670,6 +1670,10 @@ static double barrier_max_step(const level *L, const barrier_terms *bt, const do
  * keeps (below it, none: the projected Hessian). */
 #define THETA_MIN (1.0 / 64.0)
 
+/* Steps at theta_cap before Newton tries twice as much again (see
+ * newton). */
+#define THETA_HOLD 4
+
 /* Newton's energy test (see newton). */
 #define FTOL 1e-10
 
@@ -1852,6 +1856,12 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
     const size_t n3 = 3 * (size_t)L->nfree;
     double e = total_energy(L, lw, bt, lw->x);
     double theta = 0.0; /* share of the indefinite part of the Hessian kept */
+    /* The most of it to try: half a share that failed to factor, raised
+     * again after THETA_HOLD steps there (near a degenerate minimum the
+     * exact Hessian fails step after step, and each failure costs up to
+     * three factorisations). */
+    double theta_cap = 1.0;
+    int at_cap = 0;
     cholmod_sparse A;
 
     res->iterations = 0;
@@ -1895,6 +1905,10 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
                 added += d;
                 fst = factorize(&A, lw->L, cc, res);
             }
+        }
+        if (fst == DTX_ESOLVE && theta > 0.0) {
+            theta_cap = theta > THETA_MIN ? 0.5 * theta : THETA_MIN;
+            at_cap = 0;
         }
         while (fst == DTX_ESOLVE && theta > 0.0) {
             /* Not positive definite with this much of the indefinite part:
@@ -2017,9 +2031,13 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
          * linearly (when springs stay compressed at the equilibrium): it is
          * used once full steps are taken and small, and dropped again when
          * it needs a shorter step or is not positive definite. */
-        if (alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag)
-            theta = theta > 0.0 ? fmin(1.0, 2.0 * theta) : THETA_MIN;
-        else if (alpha < 0.5)
+        if (alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag) {
+            if (theta >= theta_cap && ++at_cap >= THETA_HOLD) {
+                theta_cap = fmin(1.0, 2.0 * theta_cap);
+                at_cap = 0;
+            }
+            theta = theta > 0.0 ? fmin(theta_cap, 2.0 * theta) : THETA_MIN;
+        } else if (alpha < 0.5)
             theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
         /* Converged when the step is below tol, or when a full Newton step
          * lowered the energy by less than a relative FTOL (the energy test
