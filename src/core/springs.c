@@ -1662,15 +1662,6 @@ static double barrier_max_step(const level *L, const barrier_terms *bt, const do
     return amax;
 }
 
-/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
- * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
- * Newton retries and reports a failed frame itself, so no message. */
-static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc)
-{
-    return dtx__chol_factorize(A, DTX__CHOL_NO_TEAMS, "the springs Newton system", NULL, L, cc,
-                               NULL);
-}
-
 /* Newton switches to the exact Hessian after a full step that moved no
  * vertex by more than this fraction of the diagonal. */
 #define EXACT_HESSIAN_STEP 1e-2
@@ -1679,15 +1670,31 @@ static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common
  * keeps (below it, none: the projected Hessian). */
 #define THETA_MIN (1.0 / 64.0)
 
+/* Steps at theta_cap before Newton tries twice as much again (see
+ * newton). */
+#define THETA_HOLD 4
+
 /* Newton's energy test (see newton). */
 #define FTOL 1e-10
 
 typedef struct {
     int iterations;
+    int factorizations; /* numeric factorisations, failed ones included */
     int converged;
     int failed; /* out of memory or the factorisation failed */
     double energy_start, energy;
 } newton_result;
+
+/* Factors A into L without CHOLMOD's own OpenMP teams (cholmod_util.h):
+ * DTX_OK when L is a complete factor, DTX_ENOMEM or DTX_ESOLVE otherwise.
+ * Newton retries and reports a failed frame itself, so no message. */
+static dtx_status factorize(cholmod_sparse *A, cholmod_factor *L, cholmod_common *cc,
+                            newton_result *res)
+{
+    res->factorizations++;
+    return dtx__chol_factorize(A, DTX__CHOL_NO_TEAMS, "the springs Newton system", NULL, L, cc,
+                               NULL);
+}
 
 /* Projected Newton with a backtracking line search on level L from lw->x
  * (see the file comment); fixed vertices stay.  free_translation: the
@@ -1849,9 +1856,16 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
     const size_t n3 = 3 * (size_t)L->nfree;
     double e = total_energy(L, lw, bt, lw->x);
     double theta = 0.0; /* share of the indefinite part of the Hessian kept */
+    /* The most of it to try: half a share that failed to factor, raised
+     * again after THETA_HOLD steps there (near a degenerate minimum the
+     * exact Hessian fails step after step, and each failure costs up to
+     * three factorisations). */
+    double theta_cap = 1.0;
+    int at_cap = 0;
     cholmod_sparse A;
 
     res->iterations = 0;
+    res->factorizations = 0;
     res->converged = 0;
     res->failed = 0;
     res->energy_start = e;
@@ -1875,7 +1889,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             res->converged = 1;
             break;
         }
-        fst = factorize(&A, lw->L, cc);
+        fst = factorize(&A, lw->L, cc, res);
         if (fst == DTX_ESOLVE && theta > 0.0 && bt) {
             /* With the barrier the solve leaves the turns out, and where the
              * barrier pushes, the exact Hessian is slightly negative along
@@ -1889,15 +1903,19 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
                     for (int c = 0; c < 3; c++)
                         lw->Hx[L->colp[3 * f + c + 1] - 1] += d;
                 added += d;
-                fst = factorize(&A, lw->L, cc);
+                fst = factorize(&A, lw->L, cc, res);
             }
+        }
+        if (fst == DTX_ESOLVE && theta > 0.0) {
+            theta_cap = theta > THETA_MIN ? 0.5 * theta : THETA_MIN;
+            at_cap = 0;
         }
         while (fst == DTX_ESOLVE && theta > 0.0) {
             /* Not positive definite with this much of the indefinite part:
              * less of it, down to the projected Hessian. */
             theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
             assemble_all(L, lw, bt, lw->x, theta);
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         /* The projected H + mu I is positive definite in exact arithmetic;
          * should rounding say otherwise, a larger mu is tried. */
@@ -1905,7 +1923,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += 100.0 * L->mu * attempt;
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         /* A barrier term that has grown huge can defeat that: shifts of
          * 1e-4 and 1e-1 of the mean diagonal (a shorter, still descending
@@ -1914,7 +1932,7 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
             for (int32_t f = 0; f < L->nfree; f++)
                 for (int c = 0; c < 3; c++)
                     lw->Hx[L->colp[3 * f + c + 1] - 1] += sh * 2.0 * L->kmean;
-            fst = factorize(&A, lw->L, cc);
+            fst = factorize(&A, lw->L, cc, res);
         }
         if (fst == DTX_ESOLVE && bt) {
             /* Rounding in a barrier term that has grown huge: the iterate
@@ -2013,9 +2031,13 @@ static void newton(const level *L, level_work *lw, const barrier_terms *bt, chol
          * linearly (when springs stay compressed at the equilibrium): it is
          * used once full steps are taken and small, and dropped again when
          * it needs a shorter step or is not positive definite. */
-        if (alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag)
-            theta = theta > 0.0 ? fmin(1.0, 2.0 * theta) : THETA_MIN;
-        else if (alpha < 0.5)
+        if (alpha == 1.0 && sqrt(dmax2) <= EXACT_HESSIAN_STEP * L->diag) {
+            if (theta >= theta_cap && ++at_cap >= THETA_HOLD) {
+                theta_cap = fmin(1.0, 2.0 * theta_cap);
+                at_cap = 0;
+            }
+            theta = theta > 0.0 ? fmin(theta_cap, 2.0 * theta) : THETA_MIN;
+        } else if (alpha < 0.5)
             theta = theta > THETA_MIN ? 0.25 * theta : 0.0;
         /* Converged when the step is below tol, or when a full Newton step
          * lowered the energy by less than a relative FTOL (the energy test
@@ -2180,7 +2202,8 @@ static int linear_start(const level *L, level_work *lw, const double *rot, const
         }
     }
     hessian_view(L, lw->Hx, &A);
-    if (factorize(&A, lw->L, cc) != DTX_OK ||
+    if (dtx__chol_factorize(&A, DTX__CHOL_NO_TEAMS, "the springs linear start", NULL, lw->L, cc,
+                            NULL) != DTX_OK ||
         !cholmod_solve2(CHOLMOD_A, lw->L, lw->B, NULL, &lw->X, NULL, &lw->Y, &lw->E, cc))
         return 0;
     sol = lw->X->x;
@@ -2520,6 +2543,7 @@ static void solve_frame(const dtx_springs_plan *p, worker *w, const double *xs, 
             goto nan;
     }
     fi.iterations = nr.iterations;
+    fi.factorizations = nr.factorizations;
     fi.coarse_iterations = coarse_it;
     fi.converged = nr.converged;
     fi.energy_start = nr.energy_start;

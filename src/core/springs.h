@@ -150,8 +150,11 @@ typedef struct {
 /* Per frame, from dtx_springs_apply. */
 typedef struct {
     int32_t iterations;        /* Newton steps on the fine level (one numeric
-                                  factorisation each; two when the exact Hessian
-                                  was tried and found indefinite) */
+                                  factorisation each; more when one with part of
+                                  the exact Hessian was tried and found
+                                  indefinite) */
+    int32_t factorizations;    /* numeric factorisations on the fine level, the
+                                  failed ones included (the cost of a frame) */
     int32_t coarse_iterations; /* on the coarse levels, summed */
     int32_t converged;         /* 1 when the fine level met its stopping test; 0 when
                                   max_iter ran out, the line search stalled or
@@ -256,7 +259,10 @@ int32_t dtx_springs_plan_nv_tgt(const dtx_springs_plan *plan);
  * the Hessian with a share theta in [0, 1] of its indefinite part (the
  * compressed springs' and the barrier's): 0 (projected, positive definite)
  * far from the solution, doubled after each small full step up to the
- * exact Hessian, reduced when a factorisation fails or a step is cut.
+ * exact Hessian, reduced when a factorisation fails or a step is cut;
+ * after a failure it is kept at or below half the failed share for 4
+ * steps (near a degenerate minimum the exact Hessian fails step after
+ * step, each failure costing up to three factorisations).
  *
  * Placement.  Without pins the result (not with the sp04 start, which
  * keeps sp04's orientation) is turned so that it best fits R_s applied to

@@ -153,6 +153,9 @@ static void frame_figures(const dtx_springs_frame_info *fi, int nf)
         v[f] = fi[f].iterations;
     bench_summary3(BENCH_SUMMARY_G4, "Newton iterations (fine level)", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++)
+        v[f] = fi[f].factorizations;
+    bench_summary3(BENCH_SUMMARY_G4, "numeric factorisations (fine level)", v, nf, 1.0, "");
+    for (int f = 0; f < nf; f++)
         v[f] = fi[f].coarse_iterations;
     bench_summary3(BENCH_SUMMARY_G4, "Newton iterations (coarse levels)", v, nf, 1.0, "");
     for (int f = 0; f < nf; f++)

@@ -600,6 +600,10 @@ static void test_barrier(const dtx_mesh *S, const dtx_mesh *T)
         CHECK_EQ_INT(on[f].inverted, 0);
         CHECK(on[f].converged);
         CHECK_DBL(on[f].grad_norm, <, 1e-6);
+        /* Every Newton step factors its Hessian at least once; the count
+         * includes the attempts that failed. */
+        CHECK_INT(on[f].factorizations, >=, on[f].iterations);
+        CHECK_INT(on[f].iterations, >, 0);
     }
     /* The case does fold without the barrier (else the above proves
      * nothing), far more than the start does. */
