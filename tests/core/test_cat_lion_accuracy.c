@@ -2,7 +2,10 @@
  * test_cat_lion_accuracy.c: sp04 on Sumner's cat -> lion with the shared
  * markers, against the paper's own results (paper-results/lion-0k.obj).
  * Per pose: RMS vertex distance after removing the mean translation,
- * divided by the lion's bounding-box diagonal.  Asserts a mean <= 1.0%.
+ * divided by the lion's bounding-box diagonal.  Asserts a mean <= 0.85%
+ * and a worst pose <= 1.5%: today's defaults give 0.834% and 1.437%, the
+ * best public implementation 0.96% and 1.62%, so a change that loses what
+ * the correspondence's choices won (README "Accuracy: cat -> lion") fails here.
  * Uses the bundled data unpacked into the build tree (tests' data.unpack).
  */
 #include "check.h"
@@ -84,7 +87,8 @@ int main(void)
     }
     printf("mean %.3f%%, worst %.3f%% (best public implementation: mean 0.96%%, worst 1.62%%)\n",
            sum / 9, worst);
-    CHECK_DBL(sum / 9, <=, 1.0);
+    CHECK_DBL(sum / 9, <=, 0.85);
+    CHECK_DBL(worst, <=, 1.5);
 
     free(Xs);
     free(Xt);
