@@ -446,6 +446,35 @@ static double chol_form3(const double *L, int32_t n, const double *X)
     return s;
 }
 
+/* The checks every fit makes of its per-vertex input, vertex by vertex:
+ * each row of W (nv x m; NULL: not checked) finite and summing to 1, each
+ * label (NULL: not checked) in [0, ncl).  what names the caller in the
+ * message. */
+static dtx_status check_rows(const char *what, int32_t nv, const double *W, int32_t m,
+                             const int32_t *labels, int32_t ncl, dtx_error *err)
+{
+    for (int32_t i = 0; i < nv; i++) {
+        double s = 0.0;
+        for (int32_t k = 0; W && k < m; k++) {
+            double w = W[(size_t)i * m + k];
+            if (!isfinite(w))
+                return dtx_seterr(err, DTX_ENONFINITE,
+                                  "%s: weight of vertex %d, handle %d is not finite", what,
+                                  (int)i, (int)k);
+            s += w;
+        }
+        if (W && fabs(s - 1.0) > SKIN_UNITY_TOL)
+            return dtx_seterr(err, DTX_EINVAL,
+                              "%s: the weights of vertex %d sum to %.17g, not 1 "
+                              "(they must be a partition of unity)",
+                              what, (int)i, s);
+        if (labels && (labels[i] < 0 || labels[i] >= ncl))
+            return dtx_seterr(err, DTX_ERANGE, "%s: vertex %d has cluster label %d (clusters: %d)",
+                              what, (int)i, (int)labels[i], (int)ncl);
+    }
+    return DTX_OK;
+}
+
 dtx_status dtx_skin_fit_create(const dtx_skin_mesh *mesh, int32_t m, const double *W,
                                const int32_t *labels, int32_t nclusters, const dtx_skin_params *p,
                                dtx_skin_fit **out, dtx_error *err)
@@ -470,26 +499,8 @@ dtx_status dtx_skin_fit_create(const dtx_skin_mesh *mesh, int32_t m, const doubl
         return dtx_seterr(err, DTX_EINVAL, "skinning fit: too many handles (%d)", (int)m);
 
     /* ---- validate the weights and labels */
-    for (int32_t i = 0; i < nv; i++) {
-        double s = 0.0;
-        for (int32_t k = 0; k < m; k++) {
-            double w = W[(size_t)i * m + k];
-            if (!isfinite(w))
-                return dtx_seterr(err, DTX_ENONFINITE,
-                                  "skinning fit: weight of vertex %d, handle %d is not finite",
-                                  (int)i, (int)k);
-            s += w;
-        }
-        if (fabs(s - 1.0) > SKIN_UNITY_TOL)
-            return dtx_seterr(err, DTX_EINVAL,
-                              "skinning fit: the weights of vertex %d sum to %.17g, not 1 "
-                              "(they must be a partition of unity)",
-                              (int)i, s);
-        if (labels[i] < 0 || labels[i] >= nclusters)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "skinning fit: vertex %d has cluster label %d (clusters: %d)", (int)i,
-                              (int)labels[i], (int)nclusters);
-    }
+    if ((st = check_rows("skinning fit", nv, W, m, labels, nclusters, err)) != DTX_OK)
+        return st;
 
     fit = calloc(1, sizeof *fit);
     if (!fit)
@@ -780,8 +791,8 @@ static double iterate_frame(const dtx_skin_fit *fit, double qq, const double *R0
     return E;
 }
 
-static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double *R0,
-                          int max_iters, double tol, frame_ws *ws, double *Tout, double *energy,
+static void fit_one_frame(const dtx_skin_fit *fit, const double *X, int max_iters, double tol,
+                          frame_ws *ws, double *Tout, double *energy,
                           double *diff, int32_t *iters, double *Rout, double *trace)
 {
     const dtx_skin_mesh *mesh = fit->mesh;
@@ -809,13 +820,10 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double
         }
     }
 
-    /* ---- starting rotations: the clusters' best fit to the frame itself
-     * (given, or computed here alike), then the iterations */
-    if (!R0) {
-        start_rotations(mesh, fit->labels, ncl, ws->q, ws->C, ws->Rn);
-        R0 = ws->Rn;
-    }
-    E = iterate_frame(fit, qq, R0, max_iters, tol, ws, &it, trace);
+    /* ---- starting rotations: the clusters' best fit to the frame itself,
+     * then the iterations */
+    start_rotations(mesh, fit->labels, ncl, ws->q, ws->C, ws->Rn);
+    E = iterate_frame(fit, qq, ws->Rn, max_iters, tol, ws, &it, trace);
 
     /* ---- outputs, back in the caller's coordinates */
     if (diff) {
@@ -854,43 +862,8 @@ static void fit_one_frame(const dtx_skin_fit *fit, const double *X, const double
     }
 }
 
-dtx_status dtx_skin_start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels,
-                                    int32_t nclusters, int32_t nframes, const double *X,
-                                    double *R0, dtx_error *err)
-{
-    double *q, *C, cf[3];
-    if (!mesh || !labels || nclusters < 1 || nframes < 0 || (nframes > 0 && (!X || !R0)))
-        return dtx_seterr(err, DTX_EINVAL, "skinning fit: bad arguments");
-    for (int32_t i = 0; i < mesh->nv; i++)
-        if (labels[i] < 0 || labels[i] >= nclusters)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "skinning fit: vertex %d has cluster label %d (clusters: %d)",
-                              (int)i, (int)labels[i], (int)nclusters);
-    q = dtx_alloc((size_t)mesh->nv, 3 * sizeof *q, 0);
-    C = dtx_alloc((size_t)nclusters, 9 * sizeof *C, 0);
-    if (!q || !C) {
-        free(q);
-        free(C);
-        return dtx_seterr(err, DTX_ENOMEM, "skinning fit: out of memory");
-    }
-    for (int32_t f = 0; f < nframes; f++) {
-        centre_frame(mesh, X + (size_t)f * mesh->nv * 3, q, cf);
-        start_rotations(mesh, labels, nclusters, q, C, R0 + (size_t)f * nclusters * 9);
-    }
-    free(q);
-    free(C);
-    return DTX_OK;
-}
-
 dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const double *X,
                                const dtx_skin_params *p, dtx_skin_out *out, dtx_error *err)
-{
-    return dtx_skin_fit_frames_from(fit, nframes, X, NULL, p, out, err);
-}
-
-dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, const double *X,
-                                    const double *R0, const dtx_skin_params *p, dtx_skin_out *out,
-                                    dtx_error *err)
 {
     frame_ws *ws = NULL;
     double *pool = NULL;
@@ -942,8 +915,7 @@ dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, co
 #pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
     for (int32_t f = 0; f < nframes; f++) {
         frame_ws *w = ws + omp_get_thread_num();
-        fit_one_frame(fit, X + (size_t)f * nv * 3, R0 ? R0 + (size_t)f * ncl * 9 : NULL,
-                      max_iters, p->tol, w,
+        fit_one_frame(fit, X + (size_t)f * nv * 3, max_iters, p->tol, w,
                       out->T + (size_t)f * fit->m * 12, out->energy ? out->energy + f : NULL,
                       out->diff ? out->diff + f : NULL, out->iters ? out->iters + f : NULL,
                       out->R ? out->R + (size_t)f * ncl * 9 : NULL,
@@ -1096,11 +1068,8 @@ dtx_status dtx_skin_eval_create(const dtx_skin_mesh *mesh, const int32_t *labels
                           "(got %g, %d, %g)",
                           p->lambda, p->max_iters, p->tol);
     nv = mesh->nv;
-    for (int32_t i = 0; i < nv; i++)
-        if (labels[i] < 0 || labels[i] >= nclusters)
-            return dtx_seterr(err, DTX_ERANGE,
-                              "skinning errors: vertex %d has cluster label %d (clusters: %d)",
-                              (int)i, (int)labels[i], (int)nclusters);
+    if ((st = check_rows("skinning errors", nv, NULL, 0, labels, nclusters, err)) != DTX_OK)
+        return st;
     for (int64_t i = 0; i < (int64_t)nframes * nv * 3; i++)
         if (!isfinite(X[i]))
             return dtx_seterr(err, DTX_ENONFINITE,
@@ -1132,8 +1101,8 @@ dtx_status dtx_skin_eval_create(const dtx_skin_mesh *mesh, const int32_t *labels
         goto done;
     }
 
-    /* ---- the frames, centred and scaled as dtx_skin_fit_frames does, and
-     * their starting rotations (dtx_skin_start_rotations) */
+    /* ---- the frames, centred and scaled, and their starting rotations, as
+     * dtx_skin_fit_frames computes them */
     for (int32_t f = 0; f < nframes; f++) {
         ev->qq[f] = centre_frame(mesh, X + (size_t)f * nv * 3, q, cf);
         start_rotations(mesh, labels, nclusters, q, C, ev->R0 + (size_t)f * nclusters * 9);
@@ -1269,6 +1238,7 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
     size_t w3;
     const double one = 1.0, zero = 0.0;
     double sum = 0.0;
+    dtx_status st;
 
     if (!ev || !W || !w || !mean_dist || m < 1)
         return dtx_seterr(err, DTX_EINVAL, "skinning errors: bad arguments");
@@ -1287,26 +1257,19 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
     inv = (int)nv;
     iw3 = (int)w3;
 
-    /* ---- M from the weights (checked as dtx_skin_fit_create does) */
+    /* ---- M from the weights, checked as dtx_skin_fit_create does */
+    if ((st = check_rows("skinning errors", nv, W, m, NULL, 0, err)) != DTX_OK)
+        return st;
     for (int32_t i = 0; i < nv; i++) {
         const double *wi = W + (size_t)i * m, *pp = mesh->P + 3 * (size_t)i;
-        double *mi = w->M + (size_t)i * n4, s = 0.0;
+        double *mi = w->M + (size_t)i * n4;
         for (int32_t k = 0; k < m; k++) {
             double x = wi[k];
-            if (!isfinite(x))
-                return dtx_seterr(err, DTX_ENONFINITE,
-                                  "skinning errors: weight of vertex %d, handle %d is not finite",
-                                  (int)i, (int)k);
-            s += x;
             mi[4 * k] = x * pp[0];
             mi[4 * k + 1] = x * pp[1];
             mi[4 * k + 2] = x * pp[2];
             mi[4 * k + 3] = x;
         }
-        if (fabs(s - 1.0) > SKIN_UNITY_TOL)
-            return dtx_seterr(err, DTX_EINVAL,
-                              "skinning errors: the weights of vertex %d sum to %.17g, not 1",
-                              (int)i, s);
     }
 
     /* ---- B = M + 2 lambda L M (L the spoke Laplacian), row by row, then

@@ -216,26 +216,6 @@ typedef struct {
 dtx_status dtx_skin_fit_frames(const dtx_skin_fit *fit, int32_t nframes, const double *X,
                                const dtx_skin_params *p, dtx_skin_out *out, dtx_error *err);
 
-/* The starting rotations of dtx_skin_fit_frames: for each frame of X
- * (nframes x nv x 3), the best rotation of each of the nclusters clusters
- * (labels: nv) to the frame itself, into R0 (nframes x nclusters x 9,
- * caller-allocated).  They depend on the clustering and the frames only,
- * not on the weights: a caller that fits many weight sets with one
- * clustering (the key-point selection's round) computes them once and
- * passes them to dtx_skin_fit_frames_from, which then gives the bits of
- * dtx_skin_fit_frames.  O(nframes spokes), serial.  Errors: DTX_EINVAL,
- * DTX_ERANGE (a label out of range), DTX_ENOMEM. */
-dtx_status dtx_skin_start_rotations(const dtx_skin_mesh *mesh, const int32_t *labels,
-                                    int32_t nclusters, int32_t nframes, const double *X,
-                                    double *R0, dtx_error *err);
-
-/* dtx_skin_fit_frames with the starting rotations R0 (from
- * dtx_skin_start_rotations with the fit's labels and nframes, X; NULL:
- * computed here). */
-dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, const double *X,
-                                    const double *R0, const dtx_skin_params *p, dtx_skin_out *out,
-                                    dtx_error *err);
-
 /* ------------------------------------------------------------------ */
 /* Fit errors of many weight sets (skinning.c)                         */
 /* ------------------------------------------------------------------ */
@@ -243,7 +223,7 @@ dtx_status dtx_skin_fit_frames_from(const dtx_skin_fit *fit, int32_t nframes, co
 /* What the error of a fit depends on besides the weights, for callers that
  * try many weight sets with one clustering and one frame set (the key-point
  * selection's round): the frames centred and scaled, their starting
- * rotations (dtx_skin_start_rotations) and the clusters' covariance map
+ * rotations and the clusters' covariance map
  * from the rest mesh alone.  Immutable once built: dtx_skin_eval_error may
  * run concurrently on one, each caller with its own workspace. */
 typedef struct dtx_skin_eval dtx_skin_eval;
@@ -266,7 +246,7 @@ void dtx_skin_eval_work_free(dtx_skin_eval_work **work);
 
 /* The mean over frames and vertices of |q_i - q'_i|, q the frame fitted
  * with weights W (nv x m, rows summing to 1 within 1e-6) as
- * dtx_skin_fit_create + dtx_skin_fit_frames_from + dtx_skin_apply would fit
+ * dtx_skin_fit_create + dtx_skin_fit_frames + dtx_skin_apply would fit
  * and skin it, q' the frame, in the frames' units.  The same mathematics
  * as that path, computed with fewer passes over the mesh (the normal
  * matrix, every frame's M^T q' and the skinned frames are three BLAS

@@ -543,24 +543,6 @@ static void check_fit_sequence(const char *label, const dtx_mesh *mesh, const dt
     CHECK(memcmp(R1, R2, sizeof(double) * nframes * ncl * 9) == 0);
     CHECK(memcmp(it1, it2, sizeof(int32_t) * nframes) == 0);
     CHECK(memcmp(tr1, tr2, sizeof(double) * nframes * ntr) == 0);
-    /* Starting rotations computed once (dtx_skin_start_rotations) and
-     * given: the same bits as computed in the fit. */
-    {
-        double *R0 = malloc(sizeof(double) * nframes * ncl * 9);
-        CHECK_OK(dtx_skin_start_rotations(sm, labels, ncl, nframes, X, R0, &e), &e);
-        memset(T2, 0, sizeof(double) * nframes * m * 12);
-        memset(E2, 0, sizeof(double) * nframes);
-        CHECK_OK(dtx_skin_fit_frames_from(fit, nframes, X, R0, &p, &o2, &e), &e);
-        CHECK(memcmp(T1, T2, sizeof(double) * nframes * m * 12) == 0);
-        CHECK(memcmp(E1, E2, sizeof(double) * nframes) == 0);
-        CHECK(memcmp(R1, R2, sizeof(double) * nframes * ncl * 9) == 0);
-        CHECK(memcmp(it1, it2, sizeof(int32_t) * nframes) == 0);
-        /* A label out of range is refused. */
-        labels[0] = ncl;
-        CHECK_EQ_INT(dtx_skin_start_rotations(sm, labels, ncl, nframes, X, R0, &e), DTX_ERANGE);
-        labels[0] = labels2[0];
-        free(R0);
-    }
     {
         double sumit = 0.0, maxE = 0.0;
         for (int32_t f = 0; f < nframes; f++) {
