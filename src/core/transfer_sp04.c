@@ -1301,18 +1301,24 @@ static dtx_status sp04_method_create(const dtx_transfer_inputs *in, const dtx_tr
     return st;
 }
 
+/* What sp04 reports of n frames: the residuals res; it does not iterate. */
+static void sp04_frame_info(dtx_frame_info *info, const double *res, int64_t n)
+{
+    for (int64_t i = 0; i < n; i++) {
+        info[i].residual = res[i];
+        info[i].iterations = info[i].converged = info[i].inverted = -1;
+    }
+}
+
 static dtx_status sp04_method_apply(void *plan, int64_t nframes, const double *Xs, double *Xt,
                                     dtx_frame_info *info, dtx_error *err)
 {
     sp04_method_plan *p = plan;
     dtx_status st = dtx_transfer_scratch(&p->res, &p->res_cap, nframes, sizeof(double), err);
-    const double *res = p->res;
     if (st == DTX_OK)
         st = dtx_sp04_apply(p->plan, nframes, Xs, Xt, p->res, err);
-    for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
-        info[i].residual = res[i];
-        info[i].iterations = info[i].converged = info[i].inverted = -1;
-    }
+    if (st == DTX_OK)
+        sp04_frame_info(info, p->res, nframes);
     return st;
 }
 
@@ -1345,10 +1351,7 @@ static void sp04_method_team_apply(void *plan, int64_t nframes, const double *Xs
         nfr = nframes - f0 < DTX_SOLVE_GROUP ? nframes - f0 : DTX_SOLVE_GROUP;
         dtx_sp04_apply_group(p->plan, tid, nfr, Xs + (size_t)f0 * 3 * nv_s,
                              Xt + (size_t)f0 * 3 * nv_t, res);
-        for (int64_t i = 0; i < nfr; i++) {
-            info[f0 + i].residual = res[i];
-            info[f0 + i].iterations = info[f0 + i].converged = info[f0 + i].inverted = -1;
-        }
+        sp04_frame_info(info + f0, res, nfr);
     }
 }
 

@@ -209,16 +209,23 @@ static void block_range(const run_state *r, const int64_t *todo, const int64_t *
 
 /* Block fb (n frames, read into fb->Xs) transferred into fb->Xt, fb->res
  * and fb->info.  No MPI or HDF5: any thread may run it. */
+/* What follows a block's transfer: the residuals out of the frame infos,
+ * and the seam twins of the results made identical, in the asset's order. */
+static void block_transferred(const target_ctx *tc, frame_buffers *fb, int64_t n)
+{
+    for (int64_t i = 0; i < n; i++)
+        fb->res[i] = fb->info[i].residual;
+    dtx_weld_result_frames(&tc->weld, fb->Xt, n);
+}
+
 static dtx_status transfer_block(run_state *r, const target_ctx *tc, void *plan, int64_t n,
                                  frame_buffers *fb, dtx_error *err)
 {
     dtx_status st;
     dtx_weld_source_frames(&r->src_weld, fb->Xs, n);
     st = r->method->apply(plan, n, fb->Xs, fb->Xt, fb->info, err);
-    for (int64_t i = 0; st == DTX_OK && i < n; i++)
-        fb->res[i] = fb->info[i].residual;
-    if (st == DTX_OK) /* twins identical, in the asset's order */
-        dtx_weld_result_frames(&tc->weld, fb->Xt, n);
+    if (st == DTX_OK)
+        block_transferred(tc, fb, n);
     return st;
 }
 
@@ -443,15 +450,11 @@ static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_bu
                     }
                     a = omp_get_wtime();
                     block_range(r, todo, seg, nseg, nframes, k - 1, &pf0, &pn);
-                    for (int64_t i = 0; i < pn; i++)
-                        pv->res[i] = pv->info[i].residual;
+                    block_transferred(tc, pv, pn);
                     st = check_block(r, rc, tc, sc, pf0, pn, pv->Xs, pv->res, pv->info,
                                      pv->fstats, err);
-                    if (st == DTX_OK) {
-                        /* twins identical, in the asset's order */
-                        dtx_weld_result_frames(&tc->weld, pv->Xt, pn);
+                    if (st == DTX_OK)
                         st = write_block(r, rc, tc, sc, pf0, pn, pv, 0, err);
-                    }
                     s_wr += omp_get_wtime() - a;
                 }
                 if (st == DTX_OK && k == nseg_max / 2)
