@@ -20,7 +20,10 @@
  *    for bit, at 1 and 2 threads (deformed source, pairs and fit);
  *  - the tree's closest-point search against a brute-force scan of every
  *    triangle (closest allowed one, ties to the lower index, strictly
- *    within max_dist; same point and distance), from any hint; its leaf
+ *    within max_dist; same point and distance), with and without a
+ *    filter and a distance limit, from every kind of hint (none, the
+ *    answer, its twin, a random one, one the filter rejects, one out of
+ *    range) and without (dtx_bvh_closest); its leaf
  *    order is a permutation of the primitives that keeps neighbours close;
  *    and dtx__fit_rms_from gives dtx__fit_rms's figure with any hints.
  */
@@ -304,7 +307,7 @@ static void test_bvh_brute(void)
         double p[3], c[3], bc[3] = {0, 0, 0}, d2 = -1.0, bd2;
         double maxd = q % 3 == 0 ? INFINITY : 0.15;
         dtx_bvh_filter filter = q % 2 ? odd_only : NULL;
-        int32_t best = -1, r, hint;
+        int32_t best = -1, r, hints[6];
         for (int k = 0; k < 3; k++)
             p[k] = (urand(&s) - 0.5) * 4.0;
         bd2 = isfinite(maxd) ? maxd * maxd : INFINITY;
@@ -321,11 +324,23 @@ static void test_bvh_brute(void)
                 memcpy(bc, pt, sizeof bc);
             }
         }
-        hint = q % 4 == 0 ? -1 : (int32_t)(urand(&s) * nf);
-        r = dtx_bvh_closest_from(tri, p, maxd, filter, NULL, hint, c, &d2);
+        /* From every kind of hint: none, the answer, its twin, a random
+         * triangle, the closest of all (which the filter may reject), one
+         * out of range; and dtx_bvh_closest. */
+        hints[0] = -1;
+        hints[1] = best;
+        hints[2] = best >= 0 ? (best + m.nf) % nf : 0;
+        hints[3] = (int32_t)(urand(&s) * nf);
+        hints[4] = dtx_bvh_closest(tri, p, maxd, NULL, NULL, NULL, NULL);
+        hints[5] = nf;
+        for (int h = 0; h <= 6; h++) {
+            d2 = -1.0;
+            r = h < 6 ? dtx_bvh_closest_from(tri, p, maxd, filter, NULL, hints[h], c, &d2)
+                      : dtx_bvh_closest(tri, p, maxd, filter, NULL, c, &d2);
+            if (r != best || (best >= 0 && (d2 != bd2 || memcmp(c, bc, sizeof c) != 0)))
+                bad++;
+        }
         found += best >= 0;
-        if (r != best || (best >= 0 && (d2 != bd2 || memcmp(c, bc, sizeof c) != 0)))
-            bad++;
     }
     CHECK_EQ_INT(bad, 0);
     /* Both outcomes occur; every answer found ties with its twin, so the

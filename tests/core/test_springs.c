@@ -2,9 +2,6 @@
  * test_springs.c: the stretchiness-ratio transfer on mass-spring systems
  * (src/core/springs.h) and its parts.
  *  - dtx_bvh_raycast (bvh.c, added for the internal springs);
- *  - dtx_bvh_closest_from (bvh.c, the correspondence's warm-started
- *    closest-point queries) answers as dtx_bvh_closest, bit for bit, with
- *    any hint;
  *  - spring networks: edge, bending and internal springs of a closed mesh
  *    (counts, order, lengths), none inside an open one;
  *  - T = S reproduces every frame S~ (up to a translation: the result is
@@ -147,62 +144,6 @@ static void test_raycast(void)
     CHECK_EQ_INT(dtx_bvh_raycast(pts, o, d, 0.0, INFINITY, NULL, NULL, NULL, NULL), -1);
     dtx_bvh_free(&bvh);
     dtx_bvh_free(&pts);
-}
-
-static int even_only(const void *ctx, int32_t prim)
-{
-    (void)ctx;
-    return prim % 2 == 0;
-}
-
-/* dtx_bvh_closest_from with any hint (none, the answer, a near or far
- * triangle, one the filter rejects, one out of range) gives what
- * dtx_bvh_closest gives, bit for bit: a capsule with every triangle
- * twice (ties, the lower index wins), random points inside and outside,
- * with and without a distance limit and a filter. */
-static void test_closest_from(const dtx_mesh *m)
-{
-    const int32_t nf = 2 * m->nf;
-    int32_t *F = malloc((size_t)nf * 3 * sizeof *F);
-    uint64_t s = 12345;
-    int same = 1, found = 0;
-    dtx_bvh *bvh;
-    CHECK(F != NULL);
-    if (!F)
-        return;
-    memcpy(F, m->F, (size_t)m->nf * 3 * sizeof *F);
-    memcpy(F + 3 * (size_t)m->nf, m->F, (size_t)m->nf * 3 * sizeof *F);
-    bvh = dtx_bvh_build(m->V, F, nf);
-    CHECK(bvh != NULL);
-    for (int q = 0; bvh && q < 4000; q++) {
-        double p[3], c0[3] = {0, 0, 0}, c1[3] = {0, 0, 0}, d0 = -1, d1 = -1;
-        double maxd = q % 3 == 0 ? INFINITY : 0.2;
-        dtx_bvh_filter filter = q % 2 ? even_only : NULL;
-        int32_t r0, r1, hints[6];
-        for (int k = 0; k < 3; k++) {
-            s = s * 6364136223846793005ull + 1442695040888963407ull;
-            p[k] = ((double)(s >> 11) / 9007199254740992.0 - 0.5) * 3.0;
-        }
-        r0 = dtx_bvh_closest(bvh, p, maxd, filter, NULL, c0, &d0);
-        found += r0 >= 0;
-        hints[0] = -1;
-        hints[1] = r0;
-        hints[2] = r0 >= 0 ? (r0 + m->nf) % nf : 0; /* its twin */
-        hints[3] = (int32_t)(s % (uint64_t)nf);
-        /* the closest of all, which the filter may reject */
-        hints[4] = dtx_bvh_closest(bvh, p, maxd, NULL, NULL, NULL, NULL);
-        hints[5] = nf; /* out of range */
-        for (int h = 0; h < 6; h++) {
-            d1 = -1;
-            r1 = dtx_bvh_closest_from(bvh, p, maxd, filter, NULL, hints[h], c1, &d1);
-            if (r1 != r0 || (r0 >= 0 && (memcmp(c0, c1, sizeof c0) != 0 || d0 != d1)))
-                same = 0;
-        }
-    }
-    CHECK(same);
-    CHECK(found > 1000 && found < 4000); /* both outcomes occur */
-    dtx_bvh_free(&bvh);
-    free(F);
 }
 
 static void test_build(const dtx_mesh *m)
@@ -882,7 +823,6 @@ int main(void)
         return check_report();
 
     test_raycast();
-    test_closest_from(&S);
     test_build(&S);
     test_identity_and_scale(&S);
     test_rigid_motion(&S, &T);
