@@ -194,6 +194,14 @@ static void print_item(FILE *o, const dtx_h5_item *it, int all_frames)
         if (isfinite(it->residual_mean))
             fprintf(o, "      %-16s min %.3g, mean %.3g, max %.3g (frames done)\n", "residual",
                     it->residual_min, it->residual_mean, it->residual_max);
+        if (it->frames_converged >= 0) {
+            fprintf(o, "      %-16s %lld of %lld frames done converged", "solves",
+                    (long long)it->frames_converged, (long long)it->frames_done);
+            if (it->grad_norm_max_frame >= 0)
+                fprintf(o, "; final gradient norm at most %.3g (frame %lld)", it->grad_norm_max,
+                        (long long)it->grad_norm_max_frame);
+            fputc('\n', o);
+        }
         break;
     }
     default:
@@ -377,6 +385,17 @@ static cJSON *item_json(const dtx_h5_item *it, int *oom)
             jput(r, "mean", jdouble(it->residual_mean), oom);
             jput(r, "max", jdouble(it->residual_max), oom);
             jput(o, "residual", r, oom);
+            if (it->frames_converged >= 0) {
+                cJSON *sv = cJSON_CreateObject();
+                jput(sv, "converged_frames", cJSON_CreateNumber((double)it->frames_converged),
+                     oom);
+                if (it->grad_norm_max_frame >= 0) {
+                    jput(sv, "grad_norm_max", jdouble(it->grad_norm_max), oom);
+                    jput(sv, "grad_norm_max_frame",
+                         cJSON_CreateNumber((double)it->grad_norm_max_frame), oom);
+                }
+                jput(o, "solves", sv, oom);
+            }
             if (job) {
                 char hex[17];
                 job_hash(job, hex);

@@ -338,12 +338,17 @@ static void write_residuals(FILE *f, const double *r, const uint8_t *done, int64
     free(s);
 }
 
+static double grad_norm_key(const void *gn, int64_t t) { return ((const double *)gn)[t]; }
+
 /* Methods springs and multicomponent (solver "Newton" or "Gauss-Newton"):
  * the per-frame solver figures (frame_stats rows of T x DTX_H5_FRAME_STATS),
  * summed up, with the frames that did not converge and the frames with the
- * most inverted triangles (where the method counts them: column 2 >= 0). */
-static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, int64_t T,
-                              const char *solver)
+ * most inverted triangles (where the method counts them: column 2 >= 0).
+ * gn: the final gradient norms (frame_grad_norm, T), or NULL when the
+ * result has none; with them, the largest in the summary and a table of
+ * every frame (up to TABLE_MAX frames) or of the largest. */
+static void write_frame_stats(FILE *f, const int32_t *fs, const double *gn, const uint8_t *done,
+                              int64_t T, const char *solver)
 {
     int64_t n = 0, iters = 0, maxit = 0, unconv = 0, inv_frames = 0, inv_counted = 0;
     int64_t worst[WORST_N], first_unconv[WORST_N];
@@ -376,9 +381,20 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
                 (long long)first_unconv[k]);
     fprintf(f, "%s", nu ? (unconv > nu ? ", ...)" : ")") : "");
     if (inv_counted > 0)
-        fprintf(f, "; %lld frames have inverted triangles.\n\n", (long long)inv_frames);
-    else
-        fprintf(f, ".\n\n");
+        fprintf(f, "; %lld frames have inverted triangles", (long long)inv_frames);
+    if (gn) {
+        /* The largest, lowest frame first on ties; a NaN in a frame done
+         * (a damaged file: dtx validate names it) is the largest. */
+        int64_t tmax = -1;
+        for (int64_t t = 0; t < T; t++)
+            if (done[t] && fs[DTX_H5_FRAME_STATS * t] >= 0 &&
+                (tmax < 0 || (!isnan(gn[tmax]) && !(gn[t] <= gn[tmax]))))
+                tmax = t;
+        if (tmax >= 0)
+            fprintf(f, "; final gradient norm at most %.3g (frame %lld)", gn[tmax],
+                    (long long)tmax);
+    }
+    fprintf(f, ".\n\n");
     if (nw > 0) {
         fprintf(f, "| frame | inverted triangles | %s iterations | converged |\n"
                    "|---:|---:|---:|---|\n",
@@ -387,6 +403,28 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const uint8_t *done, i
             const int32_t *row = fs + DTX_H5_FRAME_STATS * worst[k];
             fprintf(f, "| %lld | %d | %d | %s |\n", (long long)worst[k], (int)row[2],
                     (int)row[0], row[1] ? "yes" : "no");
+        }
+        fputc('\n', f);
+    }
+    if (gn) {
+        int64_t order[WORST_N];
+        int no = 0;
+        if (T > TABLE_MAX)
+            for (int64_t t = 0; t < T; t++)
+                if (done[t] && fs[DTX_H5_FRAME_STATS * t] >= 0)
+                    keep_worst(order, &no, t, grad_norm_key, gn);
+        fprintf(f, "%s\n\n| frame | final gradient norm | %s iterations | converged |\n"
+                   "|---:|---:|---:|---|\n",
+                T > TABLE_MAX ? "Largest final gradient norms:" : "Final gradient norm per frame:",
+                solver);
+        for (int64_t k = 0; k < (T > TABLE_MAX ? no : T); k++) {
+            const int64_t t = T > TABLE_MAX ? order[k] : k;
+            const int32_t *row = fs + DTX_H5_FRAME_STATS * t;
+            if (!done[t] || row[0] < 0)
+                fprintf(f, "| %lld | not done | | |\n", (long long)t);
+            else
+                fprintf(f, "| %lld | %.4g | %d | %s |\n", (long long)t, gn[t], (int)row[0],
+                        row[1] ? "yes" : "no");
         }
         fputc('\n', f);
     }
@@ -495,6 +533,7 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
             goto done;
         }
         char *method = NULL, *params = NULL;
+        double *gn = NULL;
         const dtx_transfer_method *m;
         const char *solver;
         dtx_transfer_params prm;
@@ -507,11 +546,19 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
         solver = m && m->solver_name ? m->solver_name : "Newton";
         if (m && dtx_job_params_read(params, &prm) == m)
             solver = dtx_transfer_solver_name(m, &prm);
-        if ((st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err)) == DTX_OK)
-            write_frame_stats(f, fs, done, res.nframes, solver);
+        if (res.frame_grad_norm >= 0 &&
+            !(gn = dtx_alloc((size_t)res.nframes, sizeof *gn, 0)))
+            st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
+        if (st == DTX_OK)
+            st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err);
+        if (st == DTX_OK && gn)
+            st = dtx_h5_result_read_frame_grad_norm(&res, 0, res.nframes, gn, err);
+        if (st == DTX_OK)
+            write_frame_stats(f, fs, gn, done, res.nframes, solver);
         free(params);
         free(method);
         free(fs);
+        free(gn);
     }
 done:
     free(tmesh);

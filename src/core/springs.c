@@ -2776,6 +2776,7 @@ static dtx_status springs_method_apply(void *plan, int64_t nframes, const double
         info[i].iterations = si[i].iterations;
         info[i].converged = si[i].converged;
         info[i].inverted = si[i].inverted;
+        info[i].grad_norm = si[i].grad_norm;
     }
     return st;
 }
@@ -2823,6 +2824,7 @@ const dtx_transfer_method dtx_method_springs = {
     .uses_proxy = 1,
     .solver_name = "Newton",
     .counts_inverted = 1,
+    .reports_grad_norm = 1,
     .settings = springs_settings,
     .nsettings = (int)(sizeof springs_settings / sizeof *springs_settings),
     .plan_create = springs_method_create,

@@ -15,7 +15,8 @@
  * reads an input the driver does not prepare yet.
  *
  * Every apply reports one dtx_frame_info per frame; fields a method does
- * not have are -1 (the residual every method has).
+ * not have are -1, or NaN for a real number (the residual every method
+ * has).
  */
 #ifndef DTX_TRANSFER_H
 #define DTX_TRANSFER_H
@@ -87,6 +88,9 @@ typedef struct {
     int32_t iterations; /* solves on the finest level (iterative methods) */
     int32_t converged;  /* 1 when the stopping test was met, 0 when not */
     int32_t inverted;   /* inverted target triangles (springs) */
+    double grad_norm;   /* Euclidean norm of the energy's gradient at the
+                           result (springs; see its frame info); NaN where
+                           a method has none or for a non-finite frame */
 } dtx_frame_info;
 
 /* One setting of a method, as a job file's method object names it: the
@@ -150,6 +154,8 @@ typedef struct dtx_transfer_method {
     const char *(*solver_of)(const dtx_transfer_params *prm);
     /* 1: frame infos carry inverted (iterative methods only). */
     int counts_inverted;
+    /* 1: frame infos carry grad_norm (iterative methods only). */
+    int reports_grad_norm;
     /* Its settings (nsettings rows; NULL, 0 for a method without any),
      * in the job file's method object named after the method. */
     const dtx_setting *settings;

@@ -340,6 +340,7 @@ static dtx_status bh_method_apply(void *plan, int64_t nframes, const double *Xs,
     for (int64_t i = 0; st == DTX_OK && i < nframes; i++) {
         info[i].residual = res[i];
         info[i].iterations = info[i].converged = info[i].inverted = -1;
+        info[i].grad_norm = NAN;
     }
     return st;
 }

@@ -1862,6 +1862,7 @@ static dtx_status mc_method_apply(void *plan, int64_t nframes, const double *Xs,
         info[i].iterations = mi[i].iterations;
         info[i].converged = mi[i].converged;
         info[i].inverted = -1; /* not counted */
+        info[i].grad_norm = NAN; /* not reported */
     }
     return st;
 }

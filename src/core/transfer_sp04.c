@@ -1307,6 +1307,7 @@ static void sp04_frame_info(dtx_frame_info *info, const double *res, int64_t n)
     for (int64_t i = 0; i < n; i++) {
         info[i].residual = res[i];
         info[i].iterations = info[i].converged = info[i].inverted = -1;
+        info[i].grad_norm = NAN;
     }
 }
 

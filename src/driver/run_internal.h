@@ -58,6 +58,9 @@ typedef struct {
     int64_t max_inverted;       /* most inverted triangles in a frame */
     int64_t max_inverted_frame; /* that frame (the lowest on ties), or INT64_MAX */
     int64_t max_iterations;
+    double max_grad_norm;        /* largest final gradient norm of a frame, or -1
+                                    (methods that report it: reports_grad_norm) */
+    int64_t max_grad_norm_frame; /* that frame (the lowest on ties), or INT64_MAX */
 } solve_stats;
 
 typedef enum { OUT_FRESH, OUT_RESUME, OUT_DONE } out_mode;
@@ -250,9 +253,10 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err);
 void run_stats_init(run_stats *s);
 void run_stats_add(run_stats *s, double v);
 void run_solves_init(solve_stats *s);
-/* Frame f's solve: into s, and as its frame_stats row. */
+/* Frame f's solve: into s, and as its frame_stats row (grad_norm: NaN
+ * where the method does not report it). */
 void run_solves_add(solve_stats *s, int64_t f, int32_t iterations, int converged, int32_t inverted,
-                    int32_t row[DTX_H5_FRAME_STATS]);
+                    double grad_norm, int32_t row[DTX_H5_FRAME_STATS]);
 /* Adds this rank's statistics of every result to r->stats. */
 void run_add_result_stats(run_state *r);
 /* Per-result statistics and solves of all ranks onto rank 0, saying how

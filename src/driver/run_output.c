@@ -406,6 +406,8 @@ static dtx_status create_output(run_state *r, dtx_error *err)
                 st = dtx_h5_copy_fps(r->sq[s].seq.group, rc->res.group, err);
             if (st == DTX_OK && r->method->iterative) /* frame_stats */
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
+            if (st == DTX_OK && r->method->iterative && r->method->reports_grad_norm)
+                st = dtx_h5_result_add_frame_grad_norm(&rc->res, err);
         }
     }
     /* The key that lets --resume continue this file goes in last, once
@@ -446,6 +448,15 @@ static dtx_status reopen_output(run_state *r, dtx_error *err)
                                     "of %d: cannot resume",
                                     r->partial, tmp, (long long)rc->res.nframes, (int)rc->res.nv,
                                     (long long)r->sq[s].seq.nframes, (int)r->tg[t].weld.nv);
+                /* A partial from a dtx that did not write the solver
+                 * figures is started over (a result holds them for every
+                 * frame or for none). */
+                if (st == DTX_OK && r->method->iterative &&
+                    (rc->res.frame_stats < 0 ||
+                     (r->method->reports_grad_norm && rc->res.frame_grad_norm < 0)))
+                    st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no %s: cannot resume",
+                                    r->partial, tmp,
+                                    rc->res.frame_stats < 0 ? "frame_stats" : "frame_grad_norm");
             } else if (dtx_h5_read_attr_int(r->out, final, "complete", &complete, err) ==
                            DTX_OK &&
                        complete == 1) {

@@ -53,13 +53,14 @@ static void stats_reduce(MPI_Comm comm, const run_stats *mine, run_stats *all)
 void run_solves_init(solve_stats *s)
 {
     memset(s, 0, sizeof *s);
-    s->first_unconverged = s->max_inverted_frame = INT64_MAX;
+    s->first_unconverged = s->max_inverted_frame = s->max_grad_norm_frame = INT64_MAX;
+    s->max_grad_norm = -1.0;
 }
 
 /* Frame f's solve: into s, and as its frame_stats row (inverted: -1 where
- * the method does not count them). */
+ * the method does not count them; grad_norm: NaN where it reports none). */
 void run_solves_add(solve_stats *s, int64_t f, int32_t iterations, int converged, int32_t inverted,
-                    int32_t row[DTX_H5_FRAME_STATS])
+                    double grad_norm, int32_t row[DTX_H5_FRAME_STATS])
 {
     row[0] = iterations;
     row[1] = converged ? 1 : 0;
@@ -78,6 +79,11 @@ void run_solves_add(solve_stats *s, int64_t f, int32_t iterations, int converged
         s->max_inverted = inverted;
         s->max_inverted_frame = f;
     }
+    if (grad_norm > s->max_grad_norm ||
+        (grad_norm == s->max_grad_norm && f < s->max_grad_norm_frame)) {
+        s->max_grad_norm = grad_norm;
+        s->max_grad_norm_frame = f;
+    }
 }
 
 /* The solves of all ranks, on rank 0. */
@@ -95,6 +101,13 @@ static void solves_reduce(MPI_Comm comm, const solve_stats *mine, solve_stats *a
     if (mine->max_inverted == max_all[1] && max_all[1] > 0)
         frame = mine->max_inverted_frame;
     MPI_Reduce(&frame, &all->max_inverted_frame, 1, MPI_INT64_T, MPI_MIN, 0, comm);
+    /* The lowest frame with the largest gradient norm, likewise (a maximum
+     * of doubles is exact, so the ranks agree on which is largest). */
+    MPI_Allreduce(&mine->max_grad_norm, &all->max_grad_norm, 1, MPI_DOUBLE, MPI_MAX, comm);
+    frame = mine->max_grad_norm == all->max_grad_norm && all->max_grad_norm >= 0.0
+                ? mine->max_grad_norm_frame
+                : INT64_MAX;
+    MPI_Reduce(&frame, &all->max_grad_norm_frame, 1, MPI_INT64_T, MPI_MIN, 0, comm);
     all->frames = sum_all[0];
     all->iterations = sum_all[1];
     all->unconverged = sum_all[2];
@@ -149,6 +162,9 @@ static void json_solves(FILE *f, const dtx_transfer_method *m, const dtx_transfe
     if (m->counts_inverted)
         fprintf(f, ", \"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": %lld",
                 (long long)sv->inverted_frames, (long long)sv->max_inverted);
+    if (m->reports_grad_norm && sv->max_grad_norm >= 0.0)
+        fprintf(f, ", \"grad_norm_max\": %.6g, \"grad_norm_max_frame\": %lld",
+                sv->max_grad_norm, (long long)sv->max_grad_norm_frame);
     fputc('}', f);
 }
 

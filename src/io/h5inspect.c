@@ -325,6 +325,27 @@ static void result_item(ictx *c, dtx_h5_item *it)
         if (nr > 0)
             it->residual_mean = sum / (double)nr;
     }
+    if (res.frame_stats >= 0) {
+        int32_t *fs = dtx_alloc((size_t)res.nframes, DTX_H5_FRAME_STATS * sizeof *fs, 0);
+        if (!fs) {
+            c->oom = 1;
+            goto out;
+        }
+        if (dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, &e) == DTX_OK) {
+            it->frames_converged = 0;
+            for (int64_t i = 0; i < res.nframes; i++)
+                it->frames_converged += done[i] && fs[DTX_H5_FRAME_STATS * i + 1] == 1;
+        }
+        free(fs);
+    }
+    if (res.frame_grad_norm >= 0 &&
+        dtx_h5_result_read_frame_grad_norm(&res, 0, res.nframes, r, &e) == DTX_OK) {
+        for (int64_t i = 0; i < res.nframes; i++)
+            if (done[i] && (it->grad_norm_max_frame < 0 || r[i] > it->grad_norm_max)) {
+                it->grad_norm_max = r[i];
+                it->grad_norm_max_frame = i;
+            }
+    }
 out:
     free(done);
     free(r);
@@ -422,6 +443,8 @@ static void add_item(ictx *c, int64_t kind_index, const char *path, int temporar
     it->nframes = it->frames_done = it->count = -1;
     it->chunk_frames = -1;
     it->residual_min = it->residual_max = it->residual_mean = NAN;
+    it->frames_converged = it->grad_norm_max_frame = -1;
+    it->grad_norm_max = NAN;
     for (int k = 0; k < 6; k++)
         it->bounds[k] = NAN;
     it->path = dup_str(c, path);

@@ -73,6 +73,13 @@ typedef struct {
     char **frame_names;
     /* results: residuals of the frames done (NaN when none) */
     double residual_min, residual_max, residual_mean;
+    /* results with frame_stats: frames done whose solve converged (-1
+     * without frame_stats); with frame_grad_norm: the largest final
+     * gradient norm of a frame done and that frame, the lowest on ties
+     * (NaN and -1 without it or with no frame done) */
+    int64_t frames_converged;
+    double grad_norm_max;
+    int64_t grad_norm_max_frame;
     /* markers: markers; correspondences: triangle pairs; other kinds: the
      * first dimension of the first dataset */
     int64_t count;

@@ -2626,7 +2626,7 @@ static void result_init(dtx_h5_result *res, hid_t file)
     memset(res, 0, sizeof *res);
     res->file = file;
     res->group = res->positions = res->residual = res->frame_done = H5I_INVALID_HID;
-    res->frame_stats = H5I_INVALID_HID;
+    res->frame_stats = res->frame_grad_norm = H5I_INVALID_HID;
 }
 
 /* Opens residual and frame_done of an open result group and checks them. */
@@ -2736,6 +2736,19 @@ dtx_status dtx_h5_result_open(hid_t file, const char *group, int resume, dtx_h5_
                 goto fail;
             if ((int64_t)dims[0] != res->nframes) {
                 st = ferr(err, DTX_EFORMAT, file, path, "has %llu rows for %lld frames",
+                          (unsigned long long)dims[0], (long long)res->nframes);
+                goto fail;
+            }
+        }
+        join_path(res->path, "frame_grad_norm", path, sizeof path);
+        if (link_exists(file, path)) {
+            static const hsize_t want[1] = {0};
+            hsize_t dims[1] = {0};
+            if ((st = open_checked(file, path, H5T_FLOAT, 1, want, "T", &res->frame_grad_norm,
+                                   dims, err)) != DTX_OK)
+                goto fail;
+            if ((int64_t)dims[0] != res->nframes) {
+                st = ferr(err, DTX_EFORMAT, file, path, "has %llu entries for %lld frames",
                           (unsigned long long)dims[0], (long long)res->nframes);
                 goto fail;
             }
@@ -2870,6 +2883,65 @@ dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t firs
     return DTX_OK;
 }
 
+dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err)
+{
+    static const double nan_fill = NAN;
+    char path[DTX_H5_PATH_MAX];
+    dtx_status st;
+    join_path(res->path, "frame_grad_norm", path, sizeof path);
+    if (res->frame_grad_norm >= 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "already exists");
+    st = create_filled_1d(res->group, "frame_grad_norm", H5T_IEEE_F64LE, H5T_NATIVE_DOUBLE,
+                          &nan_fill, res->nframes, err);
+    if (st == DTX_OK &&
+        (res->frame_grad_norm = H5Dopen2(res->group, "frame_grad_norm", H5P_DEFAULT)) < 0)
+        st = h5err(err, res->file, path, "cannot open");
+    return st;
+}
+
+dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first,
+                                               int64_t count, const double *grad_norm,
+                                               int collective, dtx_error *err)
+{
+    char path[DTX_H5_PATH_MAX];
+    hid_t dxpl;
+    dtx_status st = DTX_OK;
+    join_path(res->path, "frame_grad_norm", path, sizeof path);
+    if (res->frame_grad_norm < 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_grad_norm");
+    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
+        return st;
+    if (count == 0 && (!res->parallel || !collective))
+        return DTX_OK;
+    dxpl = make_dxpl(res->parallel, collective);
+    if (dxpl < 0)
+        return h5err(err, res->file, path, "cannot set up collective transfer");
+    if (slab_io(res->frame_grad_norm, 1, 1, first, count, NULL, H5T_NATIVE_DOUBLE,
+                (void *)grad_norm, dxpl) < 0)
+        st = h5err(err, res->file, path, "cannot write frames [%lld, %lld)", (long long)first,
+                   (long long)(first + count));
+    close_dxpl(dxpl);
+    return st;
+}
+
+dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
+                                              int64_t count, double *grad_norm,
+                                              dtx_error *err)
+{
+    char path[DTX_H5_PATH_MAX];
+    dtx_status st;
+    join_path(res->path, "frame_grad_norm", path, sizeof path);
+    if (res->frame_grad_norm < 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_grad_norm");
+    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
+        return st;
+    if (count > 0 && slab_io(res->frame_grad_norm, 0, 1, first, count, NULL, H5T_NATIVE_DOUBLE,
+                             grad_norm, H5P_DEFAULT) < 0)
+        return h5err(err, res->file, path, "cannot read frames [%lld, %lld)", (long long)first,
+                     (long long)(first + count));
+    return DTX_OK;
+}
+
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,
                               double *positions, double *residual, dtx_error *err)
 {
@@ -2981,6 +3053,7 @@ void dtx_h5_result_close(dtx_h5_result *res)
 {
     if (!res)
         return;
+    CLOSE_ID(H5Dclose, res->frame_grad_norm);
     CLOSE_ID(H5Dclose, res->frame_stats);
     CLOSE_ID(H5Dclose, res->frame_done);
     CLOSE_ID(H5Dclose, res->residual);

@@ -472,6 +472,7 @@ typedef struct {
     hid_t file;                    /* not owned */
     hid_t group, positions, residual, frame_done; /* owned */
     hid_t frame_stats;             /* owned; H5I_INVALID_HID when the result has none */
+    hid_t frame_grad_norm;         /* owned; H5I_INVALID_HID when the result has none */
     int64_t nframes;               /* T */
     int32_t nv;
     int is_f64;
@@ -543,6 +544,24 @@ dtx_status dtx_h5_result_write_frame_stats(dtx_h5_result *res, int64_t first, in
  * DTX_H5_FRAME_STATS); DTX_EINVAL when the result has none. */
 dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t first,
                                           int64_t count, int32_t *stats, dtx_error *err);
+
+/* Optional final gradient norm per frame of a result (method springs, the
+ * methods whose table says reports_grad_norm): the dataset frame_grad_norm,
+ * float64 T, fill NaN (not yet written), the Euclidean norm of the
+ * gradient of the method's energy at the frame's result.  Added, written
+ * and read as frame_stats: add after dtx_h5_result_create (collective in
+ * parallel; DTX_EINVAL when it exists), write entries [first, first+count)
+ * before dtx_h5_result_write marks them done (collective as for it), read
+ * into count caller-allocated doubles; DTX_EINVAL when the result has
+ * none.  dtx_h5_result_open opens it when present and checks it has T
+ * entries. */
+dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err);
+dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first,
+                                               int64_t count, const double *grad_norm,
+                                               int collective, dtx_error *err);
+dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
+                                              int64_t count, double *grad_norm,
+                                              dtx_error *err);
 
 /* Reads frames [first, first+count) of positions (count x nv x 3 doubles,
  * caller-allocated) and, when residual != NULL, the residuals (count). */

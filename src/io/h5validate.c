@@ -775,27 +775,54 @@ static void check_range(vctx *c, const char *group, const cJSON *spec)
     }
 }
 
+/* Every value of a float dataset is finite (and, with "min", at least
+ * that: written so that NaN fails).  With "done", a dataset of one entry
+ * per frame is checked in the frames whose entry in that dataset is 1 (the
+ * others hold the fill value); the flags are checked with the datasets. */
 static void check_finite(vctx *c, const char *group, const cJSON *spec)
 {
-    const char *dname = jstr(spec, "dataset");
-    vdset *rec = dname ? find_dset(c, dname) : NULL;
+    const char *dname = jstr(spec, "dataset"), *dn = jstr(spec, "done");
+    vdset *rec = dname ? find_dset(c, dname) : NULL, *drec = dn ? find_dset(c, dn) : NULL;
     char full[DTX_H5_PATH_MAX];
-    size_t npts, ncols;
+    size_t npts, ncols, nflags = 0;
+    int64_t min = 0, *flags = NULL;
+    const int has_min = jnum(spec, "min", &min);
     double *v;
     if (!rec || !rec->usable || rec->cls != H5T_FLOAT)
         return;
-    v = read_values(c, group, rec, H5T_NATIVE_DOUBLE, sizeof(double), &npts);
-    if (!v)
+    if (dn && (!drec || !drec->usable || rec->rank != 1 || drec->rank != 1 ||
+               drec->dims[0] != rec->dims[0]))
+        return; /* missing or misshapen: reported with the datasets */
+    if (dn && !(flags = read_values(c, group, drec, H5T_NATIVE_INT64, sizeof(int64_t), &nflags)))
         return;
+    v = read_values(c, group, rec, H5T_NATIVE_DOUBLE, sizeof(double), &npts);
+    if (!v) {
+        free(flags);
+        return;
+    }
     ncols = rec->rank == 2 && rec->dims[1] > 0 ? (size_t)rec->dims[1] : 1;
-    for (size_t i = 0; i < npts; i++)
+    for (size_t i = 0; i < npts; i++) {
+        if (flags && (i >= nflags || flags[i] != 1))
+            continue;
         if (!isfinite(v[i])) {
             join(group, dname, full, sizeof full);
-            problem(c, full, "value at [%zu, %zu] is not finite (%g)", i / ncols, i % ncols,
-                    v[i]);
+            if (flags)
+                problem(c, full, "value at [%zu] is not finite (%g) although %s[%zu] = 1", i,
+                        v[i], dn, i);
+            else
+                problem(c, full, "value at [%zu, %zu] is not finite (%g)", i / ncols,
+                        i % ncols, v[i]);
             break;
         }
+        if (has_min && !(v[i] >= (double)min)) {
+            join(group, dname, full, sizeof full);
+            problem(c, full, "value at [%zu, %zu] is %g, below %lld", i / ncols, i % ncols,
+                    v[i], (long long)min);
+            break;
+        }
+    }
     free(v);
+    free(flags);
 }
 
 /* Every coordinate of a T x nv x 3 dataset is finite: in every frame, or,

@@ -98,6 +98,28 @@ for t in fatcat self lion; do
         for (i = 1; i <= 9; i += 3) if ($i < 1 || $i > m || ($(i+1) != 0 && $(i+1) != 1) ||
             $(i+2) < 0) exit 1 }' <<< "$st"
 done
+# frame_grad_norm: the final gradient norm of every frame, written (3
+# finite entries >= 0, no NaN fill left), bit for bit the same at 1 rank x
+# 2 threads.
+gnorm() { # gnorm FILE RESULT: the frame_grad_norm values, one a line, as h5dump prints them
+    h5dump -y -w 0 -m '%.17g' -d "$2/frame_grad_norm" "$1" | awk '/^   DATA \{/ { on = 1; next }
+        on && /^   \}/ { exit } on' | tr ',' '\n' | awk 'NF { print $1 }'
+}
+for t in fatcat self lion; do
+    g=$(gnorm np2.h5 $R/$t/cat-poses | paste -sd' ')
+    echo "frame_grad_norm $t: $g"
+    check "frame_grad_norm of $t: float64, 3 entries" bash -c "h5dump -H -d $R/$t/cat-poses/frame_grad_norm np2.h5 | grep -q 'H5T_IEEE_F64LE' && h5dump -H -d $R/$t/cat-poses/frame_grad_norm np2.h5 | grep -q 'DATASPACE  SIMPLE { ( 3 )'"
+    check "frame_grad_norm of $t: 3 finite entries >= 0" awk '{ if (NF != 3) exit 1
+        for (i = 1; i <= 3; i++) if ($i !~ /^[0-9.]+(e[-+]?[0-9]+)?$/) exit 1 }' <<< "$g"
+    if [ "$asan" = 0 ]; then
+        check "frame_grad_norm of $t: the same bits at 2 ranks x 1 thread and 1 rank x 2 threads" \
+            cmp <(gnorm np2.h5 $R/$t/cat-poses) <(gnorm np1t2.h5 $R/$t/cat-poses)
+    fi
+done
+check "summary: the worst final gradient norm" grep -q '"grad_norm_max": [0-9.e+-]*, "grad_norm_max_frame": [0-2]' np2.h5.summary.json
+check "report: the final gradient norm per frame" test "$(grep -c '^Final gradient norm per frame:' report.md)" -eq 3
+"$DTX" inspect np2.h5 > inspect.txt
+check "inspect: the solves of each result" test "$(grep -c 'solves .* of 3 frames done converged; final gradient norm at most' inspect.txt)" -eq 3
 if [ "$asan" = 0 ]; then
     check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
     # The barrier keeps the fatcat's triangles right side up and the
