@@ -847,6 +847,24 @@ static void test_results(void)
         free(s);
         s = NULL;
     }
+    /* The final gradient norms likewise: absent until added, NaN until
+     * written. */
+    {
+        double g[T], gotg[T];
+        for (int i = 0; i < T; i++)
+            g[i] = 0.25 * i;
+        CHECK(r.frame_grad_norm < 0);
+        CHECK_EQ_INT(dtx_h5_result_write_frame_grad_norm(&r, 0, 1, g, 0, &e), DTX_EINVAL);
+        CHECK_EQ_INT(dtx_h5_result_read_frame_grad_norm(&r, 0, 1, gotg, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_add_frame_grad_norm(&r, &e), &e);
+        CHECK_EQ_INT(dtx_h5_result_add_frame_grad_norm(&r, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_read_frame_grad_norm(&r, 0, T, gotg, &e), &e);
+        CHECK(isnan(gotg[0]) && isnan(gotg[T - 1]));
+        CHECK_OK(dtx_h5_result_write_frame_grad_norm(&r, 2, 3, g, 0, &e), &e);
+        CHECK_EQ_INT(dtx_h5_result_write_frame_grad_norm(&r, 9, 2, g, 0, &e), DTX_EINVAL);
+        CHECK_OK(dtx_h5_result_read_frame_grad_norm(&r, 1, 5, gotg, &e), &e);
+        CHECK(isnan(gotg[0]) && gotg[1] == 0.0 && gotg[3] == 0.5 && isnan(gotg[4]));
+    }
     CHECK_OK(dtx_h5_result_write(&r, 0, 4, X, res, 0, &e), &e);
     CHECK_OK(dtx_h5_result_write(&r, 4, 4, X + 4 * NV * 3, NULL, 0, &e), &e);
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
@@ -871,6 +889,12 @@ static void test_results(void)
         int32_t got[DTX_H5_FRAME_STATS];
         CHECK_OK(dtx_h5_result_read_frame_stats(&r, 4, 1, got, &e), &e);
         CHECK(got[0] == 106 && got[2] == 108);
+    }
+    CHECK(r.frame_grad_norm >= 0);
+    {
+        double gotg[1];
+        CHECK_OK(dtx_h5_result_read_frame_grad_norm(&r, 3, 1, gotg, &e), &e);
+        CHECK(gotg[0] == 0.25);
     }
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
     CHECK(done[7] == 1 && done[8] == 0);

@@ -544,6 +544,98 @@ static void test_nan_not_done(void)
     free(report);
 }
 
+/* Adds frame_grad_norm to /results/lion of a good file, with values g
+ * (T entries). */
+static void put_grad_norm(const char *path, const double *g)
+{
+    dtx_h5_result r;
+    dtx_error e;
+    hid_t f = reopen(path);
+    CHECK_OK(dtx_h5_result_open(f, "/results/lion", 0, &r, &e), &e);
+    CHECK_OK(dtx_h5_result_add_frame_grad_norm(&r, &e), &e);
+    CHECK_OK(dtx_h5_result_write_frame_grad_norm(&r, 0, T, g, 0, &e), &e);
+    dtx_h5_result_close(&r);
+    done(f);
+}
+
+/* frame_grad_norm (optional): T finite entries >= 0 in the frames done;
+ * NaN there, a negative norm or the wrong shape is a problem, NaN in a
+ * frame not done (the fill) is not. */
+static void test_grad_norm(void)
+{
+    const char *path = SCRATCH "grad-norm.h5";
+    const double good[T] = {0.0, 1e-9, 0.5, 3.0, 1e6, 2e-3};
+    double g[T];
+    uint8_t flags[T] = {1, 1, 1, 0, 1, 1};
+    dtx_error e;
+    char *report = NULL;
+    hid_t f;
+    int32_t zero = 0;
+
+    make_good(path);
+    put_grad_norm(path, good);
+    CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
+    CHECK(check_contains(report, "/results/lion: ok\n"));
+    free(report);
+    report = NULL;
+
+    memcpy(g, good, sizeof g);
+    g[4] = NAN;
+    make_good(path);
+    put_grad_norm(path, g);
+    expect_bad(path, "/results/lion/frame_grad_norm: value at [4] is not finite (nan) although "
+                     "frame_done[4] = 1",
+               "/results/lion/frame_grad_norm: value at [4] is not finite");
+
+    g[4] = 1.0;
+    g[2] = -0.5;
+    make_good(path);
+    put_grad_norm(path, g);
+    expect_bad(path, "/results/lion/frame_grad_norm: value at [2, 0] is -0.5, below 0",
+               "/results/lion/frame_grad_norm: value at [2, 0] is -0.5");
+
+    /* The fill of a frame not done is NaN: not a problem. */
+    memcpy(g, good, sizeof g);
+    g[3] = NAN;
+    make_good(path);
+    put_grad_norm(path, g);
+    f = reopen(path);
+    put_done(f, "/results/lion/frame_done", flags);
+    CHECK(H5Adelete_by_name(f, "/results/lion", "complete", H5P_DEFAULT) >= 0);
+    CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", zero, &e), &e);
+    done(f);
+    CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
+    CHECK(check_contains(report, "/results/lion: ok\n"));
+    free(report);
+
+    /* The shape: T entries of float64. */
+    make_good(path);
+    put_grad_norm(path, good);
+    f = reopen(path);
+    {
+        const hsize_t d[1] = {T + 1};
+        replace_dset(f, "/results/lion/frame_grad_norm", H5T_IEEE_F64LE, 1, d, 0);
+    }
+    {
+        /* The reader refuses it too, naming it. */
+        dtx_h5_result r;
+        CHECK_EQ_INT(dtx_h5_result_open(f, "/results/lion", 0, &r, &e), DTX_EFORMAT);
+        CHECK(check_contains(e.msg, "/results/lion/frame_grad_norm: has 7 entries for 6 frames"));
+    }
+    done(f);
+    expect_bad(path, "/results/lion/frame_grad_norm", "/results/lion/frame_grad_norm");
+    make_good(path);
+    put_grad_norm(path, good);
+    f = reopen(path);
+    {
+        const hsize_t d[1] = {T};
+        replace_dset(f, "/results/lion/frame_grad_norm", H5T_STD_I32LE, 1, d, 0);
+    }
+    done(f);
+    expect_bad(path, "/results/lion/frame_grad_norm: expected float",
+               "/results/lion/frame_grad_norm: expected float");
+}
+
 /* frame_done holds flags: 0 or 1. */
 static void test_bad_flags(void)
 {
@@ -667,6 +759,7 @@ int main(void)
     test_bad_nan_result();
     test_nan_not_done();
     test_bad_flags();
+    test_grad_norm();
     test_bad_nan_sequence();
     test_blocks();
     count_ids(after);
