@@ -70,7 +70,10 @@ for t in pebble-lion lion-garment lion-eyes; do
     check "$t: frame_stats has 9 rows" test "$(stats "$W/np2.h5" $t | wc -l)" -eq 9
     check "$t: frame_stats rows are solver figures" stats_ok "$W/np2.h5" $t
     check "$t: frame_stats the same at 1 and 2 ranks" cmp <(stats "$W/np1.h5" $t) <(stats "$W/np2.h5" $t)
+    # Gauss-Newton reports no final gradient norm: no frame_grad_norm.
+    check "$t: no frame_grad_norm" bash -c "! h5ls '$W/np2.h5/results/$t/cat-poses' | grep -q frame_grad_norm && h5ls '$W/np2.h5/results/$t/cat-poses' | grep -q frame_stats"
 done
+check "summary: no gradient norm for multicomponent" bash -c "! grep -q grad_norm '$W/np2.h5.summary.json'"
 check "log: the proximity graph of each target" grep -q 'target pebble-lion: 2[0-9][0-9] components, [0-9]* proximity edges with [0-9]* vertex pairs' "$W/np2.log"
 check "log: Gauss-Newton iterations per result" grep -q 'result lion-eyes/cat-poses: Gauss-Newton [0-9.]* iterations per frame' "$W/np2.log"
 check "summary: Gauss-Newton figures per result" test "$(grep -c '"multicomponent": {"gauss_newton_iterations_mean"' "$W/np2.h5.summary.json")" -eq 3

@@ -15,8 +15,10 @@
 # Run at 2 ranks x 1 thread and 1 rank x 2 threads (the second not in the
 # sanitizer pass): the same results to 1e-12 relative; the
 # file validates and holds frame_stats (Newton iterations, converged,
-# inverted triangles) for every frame; the summary and the log report the
-# solves; the lion result stays near sp04's; a target of another
+# inverted triangles) and frame_grad_norm (the final gradient norm, the
+# same bits at both rank and thread counts) for every frame; the summary,
+# the log, the report and inspect report the solves; a run failed in its
+# frame loop and resumed writes the clean run's bits; the lion result stays near sp04's; a target of another
 # connectivity without markers, and pins on a proxy target, are refused
 # with messages naming the target.
 set -euo pipefail
@@ -153,6 +155,12 @@ check "summary: the worst final gradient norm" grep -q '"grad_norm_max": [0-9.e+
 check "report: the final gradient norm per frame" test "$(grep -c '^Final gradient norm per frame:' report.md)" -eq 3
 "$DTX" inspect np2.h5 > inspect.txt
 check "inspect: the solves of each result" test "$(grep -c 'solves .* of 3 frames done converged; final gradient norm at most' inspect.txt)" -eq 3
+"$DTX" inspect --json np2.h5 > inspect.json
+check "inspect --json: the solves of self (3 converged, the largest norm and its frame)" "$PY" -c '
+import json, sys
+items = json.load(open("inspect.json"))["results"]
+r = [i for i in items if i.get("path") == "/results/self/cat-poses"][0]["solves"]
+sys.exit(0 if r["converged_frames"] == 3 and 0 <= r["grad_norm_max"] < 1e-5 and r["grad_norm_max_frame"] in (0, 1, 2) else 1)'
 if [ "$asan" = 0 ]; then
     check "self converged in every frame" awk '{ exit ($2 == 1 && $5 == 1 && $8 == 1) ? 0 : 1 }' <<< "$(stats $R/self/cat-poses)"
     # The barrier keeps the fatcat's triangles right side up and the
