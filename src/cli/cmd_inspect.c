@@ -387,8 +387,7 @@ static cJSON *item_json(const dtx_h5_item *it, int *oom)
             jput(o, "residual", r, oom);
             if (it->frames_converged >= 0) {
                 cJSON *sv = cJSON_CreateObject();
-                jput(sv, "converged_frames", cJSON_CreateNumber((double)it->frames_converged),
-                     oom);
+                jput(sv, "converged_frames", cJSON_CreateNumber((double)it->frames_converged), oom);
                 if (it->grad_norm_max_frame >= 0) {
                     jput(sv, "grad_norm_max", jdouble(it->grad_norm_max), oom);
                     jput(sv, "grad_norm_max_frame",

@@ -413,8 +413,9 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const double *gn, cons
             for (int64_t t = 0; t < T; t++)
                 if (done[t] && fs[DTX_H5_FRAME_STATS * t] >= 0)
                     keep_worst(order, &no, t, grad_norm_key, gn);
-        fprintf(f, "%s\n\n| frame | final gradient norm | %s iterations | converged |\n"
-                   "|---:|---:|---:|---|\n",
+        fprintf(f,
+                "%s\n\n| frame | final gradient norm | %s iterations | converged |\n"
+                "|---:|---:|---:|---|\n",
                 T > TABLE_MAX ? "Largest final gradient norms:" : "Final gradient norm per frame:",
                 solver);
         for (int64_t k = 0; k < (T > TABLE_MAX ? no : T); k++) {
@@ -546,8 +547,7 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
         solver = m && m->solver_name ? m->solver_name : "Newton";
         if (m && dtx_job_params_read(params, &prm) == m)
             solver = dtx_transfer_solver_name(m, &prm);
-        if (res.frame_grad_norm >= 0 &&
-            !(gn = dtx_alloc((size_t)res.nframes, sizeof *gn, 0)))
+        if (res.frame_grad_norm >= 0 && !(gn = dtx_alloc((size_t)res.nframes, sizeof *gn, 0)))
             st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         if (st == DTX_OK)
             st = dtx_h5_result_read_frame_stats(&res, 0, res.nframes, fs, err);

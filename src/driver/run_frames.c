@@ -147,10 +147,10 @@ static dtx_status check_frames_finite(const run_state *r, const seq_ctx *sc, int
  * frames f0 .. f0 + n, from sources Xs, residuals res, solver figures
  * info, frame_stats filled for iterative methods and gnorm for those that
  * report the final gradient norm. */
-static dtx_status check_block(run_state *r, result_ctx *rc, const target_ctx *tc,
-                              const seq_ctx *sc, int64_t f0, int64_t n, const double *Xs,
-                              const double *res, const dtx_frame_info *info, int32_t *fstats,
-                              double *gnorm, dtx_error *err)
+static dtx_status check_block(run_state *r, result_ctx *rc, const target_ctx *tc, const seq_ctx *sc,
+                              int64_t f0, int64_t n, const double *Xs, const double *res,
+                              const dtx_frame_info *info, int32_t *fstats, double *gnorm,
+                              dtx_error *err)
 {
     const int with_gnorm = r->method->iterative && r->method->reports_grad_norm;
     for (int64_t i = 0; i < n; i++) {
@@ -168,9 +168,8 @@ static dtx_status check_block(run_state *r, result_ctx *rc, const target_ctx *tc
         }
         run_stats_add(&rc->st, res[i]);
         if (r->method->iterative) /* inverted -1 where not counted */
-            run_solves_add(&rc->sv, f0 + i, info[i].iterations, info[i].converged,
-                           info[i].inverted, with_gnorm ? info[i].grad_norm : NAN,
-                           fstats + DTX_H5_FRAME_STATS * i);
+            run_solves_add(&rc->sv, f0 + i, info[i].iterations, info[i].converged, info[i].inverted,
+                           with_gnorm ? info[i].grad_norm : NAN, fstats + DTX_H5_FRAME_STATS * i);
         if (with_gnorm)
             gnorm[i] = info[i].grad_norm;
     }
@@ -190,11 +189,11 @@ static int omp_max_threads(void)
 static dtx_status buffers_alloc(const run_state *r, int32_t maxnv, frame_buffers *fb,
                                 dtx_error *err)
 {
+    const int with_gnorm = r->method->iterative && r->method->reports_grad_norm;
     fb->Xs = dtx_alloc((size_t)fb->block * (size_t)r->src_weld.nv, 3 * sizeof *fb->Xs, 0);
     fb->Xt = dtx_alloc((size_t)fb->block * (size_t)maxnv, 3 * sizeof *fb->Xt, 0);
     fb->res = dtx_alloc((size_t)fb->block, sizeof *fb->res, 0);
     fb->info = dtx_alloc((size_t)fb->block, sizeof *fb->info, 1);
-    const int with_gnorm = r->method->iterative && r->method->reports_grad_norm;
     if (r->method->iterative)
         fb->fstats = dtx_alloc((size_t)fb->block, DTX_H5_FRAME_STATS * sizeof *fb->fstats, 1);
     if (with_gnorm)
@@ -250,8 +249,7 @@ static dtx_status write_block(run_state *r, result_ctx *rc, const target_ctx *tc
         st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats, coll,
                                              err);
     if (st == DTX_OK && r->method->iterative && r->method->reports_grad_norm)
-        st = dtx_h5_result_write_frame_grad_norm(&rc->res, n > 0 ? f0 : 0, n, fb->gnorm, coll,
-                                                 err);
+        st = dtx_h5_result_write_frame_grad_norm(&rc->res, n > 0 ? f0 : 0, n, fb->gnorm, coll, err);
     if (st == DTX_OK)
         st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, coll, err);
     if (st == DTX_OK && r->job.export_obj_dir)
@@ -332,8 +330,8 @@ static dtx_status transfer_overlapped(run_state *r, int t, int s, void *plan, fr
                 st = st_tr;
             }
             if (st == DTX_OK && n > 0)
-                st = check_block(r, rc, tc, sc, f0, n, cur->Xs, cur->res, cur->info,
-                                 cur->fstats, cur->gnorm, err);
+                st = check_block(r, rc, tc, sc, f0, n, cur->Xs, cur->res, cur->info, cur->fstats,
+                                 cur->gnorm, err);
             if (st == DTX_OK && k == nseg_max / 2)
                 st = run_injected_fault(r, "transfer", err);
         }
@@ -464,8 +462,8 @@ static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_bu
                     a = omp_get_wtime();
                     block_range(r, todo, seg, nseg, nframes, k - 1, &pf0, &pn);
                     block_transferred(tc, pv, pn);
-                    st = check_block(r, rc, tc, sc, pf0, pn, pv->Xs, pv->res, pv->info,
-                                     pv->fstats, pv->gnorm, err);
+                    st = check_block(r, rc, tc, sc, pf0, pn, pv->Xs, pv->res, pv->info, pv->fstats,
+                                     pv->gnorm, err);
                     if (st == DTX_OK)
                         st = write_block(r, rc, tc, sc, pf0, pn, pv, 0, err);
                     s_wr += omp_get_wtime() - a;
@@ -582,8 +580,8 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
             st = run_injected_fault(r, "transfer", err);
         t2 = run_wtime();
         if (st == DTX_OK)
-            st = check_block(r, rc, tc, sc, f0, n, fb->Xs, fb->res, fb->info, fb->fstats,
-                             fb->gnorm, err);
+            st = check_block(r, rc, tc, sc, f0, n, fb->Xs, fb->res, fb->info, fb->fstats, fb->gnorm,
+                             err);
         if (coll && (st = run_agree(r->comm, st, err)) != DTX_OK)
             goto done;
         if (st == DTX_OK)

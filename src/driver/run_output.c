@@ -454,8 +454,8 @@ static dtx_status reopen_output(run_state *r, dtx_error *err)
                 if (st == DTX_OK && r->method->iterative &&
                     (rc->res.frame_stats < 0 ||
                      (r->method->reports_grad_norm && rc->res.frame_grad_norm < 0)))
-                    st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no %s: cannot resume",
-                                    r->partial, tmp,
+                    st = dtx_seterr(err, DTX_EFORMAT, "%s: %s has no %s: cannot resume", r->partial,
+                                    tmp,
                                     rc->res.frame_stats < 0 ? "frame_stats" : "frame_grad_norm");
             } else if (dtx_h5_read_attr_int(r->out, final, "complete", &complete, err) ==
                            DTX_OK &&

@@ -163,8 +163,8 @@ static void json_solves(FILE *f, const dtx_transfer_method *m, const dtx_transfe
         fprintf(f, ", \"frames_with_inverted_triangles\": %lld, \"inverted_triangles_max\": %lld",
                 (long long)sv->inverted_frames, (long long)sv->max_inverted);
     if (m->reports_grad_norm && sv->max_grad_norm >= 0.0)
-        fprintf(f, ", \"grad_norm_max\": %.6g, \"grad_norm_max_frame\": %lld",
-                sv->max_grad_norm, (long long)sv->max_grad_norm_frame);
+        fprintf(f, ", \"grad_norm_max\": %.6g, \"grad_norm_max_frame\": %lld", sv->max_grad_norm,
+                (long long)sv->max_grad_norm_frame);
     fputc('}', f);
 }
 

@@ -2744,8 +2744,8 @@ dtx_status dtx_h5_result_open(hid_t file, const char *group, int resume, dtx_h5_
         if (link_exists(file, path)) {
             static const hsize_t want[1] = {0};
             hsize_t dims[1] = {0};
-            if ((st = open_checked(file, path, H5T_FLOAT, 1, want, "T", &res->frame_grad_norm,
-                                   dims, err)) != DTX_OK)
+            if ((st = open_checked(file, path, H5T_FLOAT, 1, want, "T", &res->frame_grad_norm, dims,
+                                   err)) != DTX_OK)
                 goto fail;
             if ((int64_t)dims[0] != res->nframes) {
                 st = ferr(err, DTX_EFORMAT, file, path, "has %llu entries for %lld frames",
@@ -2899,9 +2899,9 @@ dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err)
     return st;
 }
 
-dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first,
-                                               int64_t count, const double *grad_norm,
-                                               int collective, dtx_error *err)
+dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first, int64_t count,
+                                               const double *grad_norm, int collective,
+                                               dtx_error *err)
 {
     char path[DTX_H5_PATH_MAX];
     hid_t dxpl;
@@ -2925,8 +2925,7 @@ dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first
 }
 
 dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
-                                              int64_t count, double *grad_norm,
-                                              dtx_error *err)
+                                              int64_t count, double *grad_norm, dtx_error *err)
 {
     char path[DTX_H5_PATH_MAX];
     dtx_status st;

@@ -556,12 +556,11 @@ dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t firs
  * none.  dtx_h5_result_open opens it when present and checks it has T
  * entries. */
 dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err);
-dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first,
-                                               int64_t count, const double *grad_norm,
-                                               int collective, dtx_error *err);
+dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first, int64_t count,
+                                               const double *grad_norm, int collective,
+                                               dtx_error *err);
 dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
-                                              int64_t count, double *grad_norm,
-                                              dtx_error *err);
+                                              int64_t count, double *grad_norm, dtx_error *err);
 
 /* Reads frames [first, first+count) of positions (count x nv x 3 doubles,
  * caller-allocated) and, when residual != NULL, the residuals (count). */

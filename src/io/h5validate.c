@@ -807,17 +807,17 @@ static void check_finite(vctx *c, const char *group, const cJSON *spec)
         if (!isfinite(v[i])) {
             join(group, dname, full, sizeof full);
             if (flags)
-                problem(c, full, "value at [%zu] is not finite (%g) although %s[%zu] = 1", i,
-                        v[i], dn, i);
+                problem(c, full, "value at [%zu] is not finite (%g) although %s[%zu] = 1", i, v[i],
+                        dn, i);
             else
-                problem(c, full, "value at [%zu, %zu] is not finite (%g)", i / ncols,
-                        i % ncols, v[i]);
+                problem(c, full, "value at [%zu, %zu] is not finite (%g)", i / ncols, i % ncols,
+                        v[i]);
             break;
         }
         if (has_min && !(v[i] >= (double)min)) {
             join(group, dname, full, sizeof full);
-            problem(c, full, "value at [%zu, %zu] is %g, below %lld", i / ncols, i % ncols,
-                    v[i], (long long)min);
+            problem(c, full, "value at [%zu, %zu] is %g, below %lld", i / ncols, i % ncols, v[i],
+                    (long long)min);
             break;
         }
     }

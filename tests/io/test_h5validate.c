@@ -583,8 +583,9 @@ static void test_grad_norm(void)
     g[4] = NAN;
     make_good(path);
     put_grad_norm(path, g);
-    expect_bad(path, "/results/lion/frame_grad_norm: value at [4] is not finite (nan) although "
-                     "frame_done[4] = 1",
+    expect_bad(path,
+               "/results/lion/frame_grad_norm: value at [4] is not finite (nan) although "
+               "frame_done[4] = 1",
                "/results/lion/frame_grad_norm: value at [4] is not finite");
 
     g[4] = 1.0;
