@@ -545,7 +545,7 @@ static dtx_status write_result(FILE *f, hid_t h, const report_args *a, const cha
          * frame_stats: say "Newton". */
         m = dtx_transfer_method_named(method);
         solver = m && m->solver_name ? m->solver_name : "Newton";
-        if (m && dtx_job_params_read(params, &prm) == m)
+        if (m && dtx_job_params_read(params, &prm) == m && dtx_transfer_solver_name(m, &prm))
             solver = dtx_transfer_solver_name(m, &prm);
         if (res.frame_grad_norm >= 0 && !(gn = dtx_alloc((size_t)res.nframes, sizeof *gn, 0)))
             st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
