@@ -24,7 +24,7 @@ static void lookup(void)
 }
 
 /* What the driver relies on: a solver name exactly for the iterative
- * methods, inverted counts only from them, every method reads a
+ * methods, inverted counts and final gradient norms only from them, every method reads a
  * correspondence's pairs, a proxy or key points, and a method that reads
  * pairs for a target of several components builds on the correspondence
  * that pairs such a target. */
@@ -34,6 +34,7 @@ static void consistent(void)
         const dtx_transfer_method *m = dtx_transfer_method_of((dtx_transfer_kind)k);
         CHECK_EQ_INT(m->solver_name != NULL, m->iterative != 0);
         CHECK(!m->counts_inverted || m->iterative);
+        CHECK(!m->reports_grad_norm || m->iterative);
         CHECK(m->uses_pairs || m->uses_proxy || m->uses_keypoints);
         CHECK(!(m->uses_pairs && m->multi_component_target) ||
               m->correspondence == DTX_TRANSFER_CORR_MULTICOMPONENT);
@@ -59,6 +60,9 @@ static void members(void)
         dtx_transfer_params_default(&prm, DTX_TRANSFER_SPRINGS);
         CHECK(strcmp(dtx_transfer_solver_name(&dtx_method_springs, &prm), "Newton") == 0);
     }
+    /* Only springs writes frame_grad_norm (README: Springs). */
+    CHECK(dtx_method_springs.reports_grad_norm && !dtx_method_multicomponent.reports_grad_norm &&
+          !dtx_method_sp04.reports_grad_norm && !dtx_method_biharmonic.reports_grad_norm);
     CHECK(dtx_method_springs.uses_proxy && !dtx_method_springs.uses_pairs &&
           dtx_method_springs.counts_inverted &&
           strcmp(dtx_method_springs.solver_name, "Newton") == 0);
