@@ -531,9 +531,15 @@ dtx_status run_finish_output(run_state *r, dtx_error *err)
     run_close_results(r);
     if (run_agree(r->comm, dtx_h5_close(&r->out, err), err) != DTX_OK)
         return err->code;
-    if (r->rank == 0 && rename(r->partial, r->job.output_file) != 0)
-        st = dtx_seterr(err, DTX_EIO, "%s: cannot rename the finished output into place: %s",
-                        r->job.output_file, strerror(errno));
+    if (r->rank == 0) {
+        int old_left = 0;
+        st = dtx_file_replace(r->partial, r->job.output_file, &old_left, err);
+        if (st != DTX_OK)
+            dtx_error_prefix(err, "cannot move the finished output into place");
+        else if (old_left)
+            fprintf(stderr, "dtx: warning: %s is in place; the output it replaced is left as %s "
+                    "and could not be removed: remove it\n", r->job.output_file, r->partial);
+    }
     r->tm.write += run_wtime() - t0;
     return run_agree(r->comm, st, err);
 }

@@ -1,14 +1,14 @@
 /* file_util.c: open input files only when they are regular files, without
  * ever blocking on a FIFO. */
-/* realpath() is XSI, outside _POSIX_C_SOURCE. */
-#define _XOPEN_SOURCE 700
+/* realpath() is XSI, outside _POSIX_C_SOURCE; renameat2() is GNU. */
+#define _GNU_SOURCE
 
 #include "file_util.h"
 
 #include <errno.h>
-#include <stdio.h>
 #include <fcntl.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -195,4 +195,26 @@ const char *dtx_path_base_name(const char *path)
 {
     const char *s = strrchr(path, '/');
     return s ? s + 1 : path;
+}
+
+dtx_status dtx_file_replace(const char *from, const char *to, int *old_left, dtx_error *err)
+{
+    *old_left = 0;
+#ifdef RENAME_EXCHANGE
+    /* rename() over an existing file makes ext4 write the new file's dirty
+     * pages out and wait (its guard for programs that replace a file
+     * without fsync: half a second for a 1.2 GB output).  Exchanging the
+     * two names is as atomic for readers of `to` and starts no writeback;
+     * the replaced file, now at `from`, is removed after. */
+    if (renameat2(AT_FDCWD, from, AT_FDCWD, to, RENAME_EXCHANGE) == 0) {
+        if (unlink(from) != 0)
+            *old_left = 1;
+        return DTX_OK;
+    }
+    /* ENOENT: nothing to replace; EINVAL, ENOSYS, ...: a file system or
+     * kernel without exchange.  A plain rename either way. */
+#endif
+    if (rename(from, to) != 0)
+        return dtx_seterr(err, DTX_EIO, "%s: cannot rename to %s: %s", from, to, strerror(errno));
+    return DTX_OK;
 }

@@ -1688,19 +1688,38 @@ static dtx_status write_frames(hid_t file, hid_t dset, const char *path, int par
     return st;
 }
 
+/* Reads frames of a positions dataset as doubles.  float32 frames are read
+ * as they are stored into the upper half of out, then widened in place
+ * from the front: HDF5's own conversion goes through its type-conversion
+ * buffer and a scatter copy, which cost more than the read itself. */
 static dtx_status read_frames(hid_t file, hid_t dset, const char *path, int64_t nframes,
-                              int32_t nv, int64_t first, int64_t count, double *out,
+                              int32_t nv, int is_f64, int64_t first, int64_t count, double *out,
                               dtx_error *err)
 {
     hsize_t inner[2] = {(hsize_t)nv, 3};
+    const size_t n = (size_t)count * (size_t)nv * 3u;
+    float *f = (float *)out + n; /* bytes [4n, 8n) of out */
     dtx_status st;
     if ((st = check_frames(file, path, nframes, first, count, err)) != DTX_OK)
         return st;
     if (count == 0)
         return DTX_OK;
-    if (slab_io(dset, 0, 3, first, count, inner, H5T_NATIVE_DOUBLE, out, H5P_DEFAULT) < 0)
+    if (slab_io(dset, 0, 3, first, count, inner, is_f64 ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT,
+                is_f64 ? (void *)out : (void *)f, H5P_DEFAULT) < 0)
         return h5err(err, file, path, "cannot read frames [%lld, %lld)", (long long)first,
                      (long long)(first + count));
+    if (!is_f64) {
+        /* Piece by piece through a local buffer: writing out[0, i + m)
+         * overwrites floats below index 2(i + m) - n <= i + m only, which
+         * have been copied out already. */
+        float piece[1024];
+        for (size_t i = 0; i < n; i += 1024) {
+            const size_t m = n - i < 1024 ? n - i : 1024;
+            memcpy(piece, f + i, m * sizeof *piece);
+            for (size_t k = 0; k < m; k++)
+                out[i + k] = (double)piece[k];
+        }
+    }
     return DTX_OK;
 }
 
@@ -1846,8 +1865,8 @@ dtx_status dtx_h5_seq_read(const dtx_h5_seq *seq, int64_t first, int64_t count, 
 {
     char path[DTX_H5_PATH_MAX];
     join_path(seq->path, "positions", path, sizeof path);
-    return read_frames(seq->file, seq->dset, path, seq->nframes, seq->nv, first, count, out,
-                       err);
+    return read_frames(seq->file, seq->dset, path, seq->nframes, seq->nv, seq->is_f64, first,
+                       count, out, err);
 }
 
 dtx_status dtx_h5_seq_write(dtx_h5_seq *seq, int64_t first, int64_t count, const double *data,
@@ -2947,8 +2966,8 @@ dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t c
     char path[DTX_H5_PATH_MAX];
     dtx_status st;
     join_path(res->path, "positions", path, sizeof path);
-    if ((st = read_frames(res->file, res->positions, path, res->nframes, res->nv, first, count,
-                          positions, err)) != DTX_OK)
+    if ((st = read_frames(res->file, res->positions, path, res->nframes, res->nv, res->is_f64,
+                          first, count, positions, err)) != DTX_OK)
         return st;
     if (residual && count > 0 &&
         slab_io(res->residual, 0, 1, first, count, NULL, H5T_NATIVE_DOUBLE, residual,

@@ -679,6 +679,49 @@ static void test_sequences(void)
     CHECK_OK(dtx_h5_close(&f, &e), &e);
 }
 
+/* Reads of float32 frames larger than the pieces they are widened in
+ * (1,024 values): every value of a 9-frame, 150-vertex sequence (4,050
+ * values) and of a read from frame 2 is the float32 rounding of what was
+ * written, in the right place; a float64 sequence reads back exactly. */
+static void test_sequence_big_reads(void)
+{
+    enum { T = 9, NV = 150 };
+    static double X[T * NV * 3], Y[T * NV * 3];
+    dtx_error e;
+    dtx_mesh m;
+    dtx_h5_seq s;
+    hid_t f = h5check_new_file(SCRATCH "seq-big.h5");
+    dtx_mesh_alloc(&m, NV, 1, NULL);
+    for (int i = 0; i < NV * 3; i++)
+        m.V[i] = frame_value(0, i / 3, i % 3);
+    m.F[0] = 0, m.F[1] = 1, m.F[2] = 2;
+    CHECK_OK(dtx_h5_write_mesh(f, "/meshes/strip", &m, "strip.obj", &e), &e);
+    fill_frames(X, 0, T, NV);
+    for (int f64 = 0; f64 <= 1; f64++) {
+        const char *path = f64 ? "/sequences/big64" : "/sequences/big32";
+        int exact = 1, exact_from2 = 1;
+        CHECK_OK(dtx_h5_seq_create(f, path, "/meshes/strip", T, NV, f64, 0, 0, &s, &e), &e);
+        CHECK_OK(dtx_h5_seq_write(&s, 0, T, X, 0, &e), &e);
+        CHECK_OK(dtx_h5_seq_commit(&s, &e), &e);
+        dtx_h5_seq_close(&s);
+        CHECK_OK(dtx_h5_seq_open(f, path, &s, &e), &e);
+        CHECK_EQ_INT(s.is_f64, f64);
+        CHECK_OK(dtx_h5_seq_read(&s, 0, T, Y, &e), &e);
+        for (int i = 0; i < T * NV * 3; i++)
+            exact &= Y[i] == (f64 ? X[i] : (double)(float)X[i]);
+        CHECK(exact);
+        CHECK_OK(dtx_h5_seq_read(&s, 2, 5, Y, &e), &e);
+        for (int i = 0; i < 5 * NV * 3; i++) {
+            const double x = X[2 * NV * 3 + i];
+            exact_from2 &= Y[i] == (f64 ? x : (double)(float)x);
+        }
+        CHECK(exact_from2);
+        dtx_h5_seq_close(&s);
+    }
+    dtx_mesh_free(&m);
+    CHECK_OK(dtx_h5_close(&f, &e), &e);
+}
+
 /* -------------------------------------------------------------- markers */
 
 static void test_markers(void)
@@ -1055,6 +1098,7 @@ int main(void)
     run(test_mesh_roundtrip, "mesh_roundtrip");
     run(test_mesh_rejects, "mesh_rejects");
     run(test_sequences, "sequences");
+    run(test_sequence_big_reads, "sequence_big_reads");
     run(test_markers, "markers");
     run(test_corr, "corr");
     run(test_results, "results");

@@ -7,6 +7,9 @@
  *   - dtx_file_same_inode finds the same spellings and links, tells two
  *     files apart and says -1 for a missing path; dtx_path_base_name gives
  *     the part after the last '/' ("" after a trailing one);
+ *   - dtx_file_replace moves a file to a new name, replaces an existing
+ *     file there (whose old contents are gone, not left at the first
+ *     name), and fails with both paths named when there is nothing to move;
  *   - the lock is exclusive, names its holder, is released, replaces a
  *     stale lock of a dead pid on this host, refuses one of another host
  *     until break_lock, and is never left half-written. */
@@ -124,6 +127,48 @@ static void test_base_name(void)
     CHECK(strcmp(dtx_path_base_name(""), "") == 0);
 }
 
+/* The whole contents of path into buf (n bytes), "" when unreadable. */
+static const char *read_text(const char *path, char *buf, size_t n)
+{
+    FILE *f = fopen(path, "r");
+    size_t k = 0;
+    if (f) {
+        k = fread(buf, 1, n - 1, f);
+        fclose(f);
+    }
+    buf[k] = '\0';
+    return buf;
+}
+
+static void test_replace(void)
+{
+    char from[512], to[512], buf[64];
+    dtx_error e;
+    int left = -1;
+    snprintf(from, sizeof from, "%s/replace.partial", SCRATCH);
+    snprintf(to, sizeof to, "%s/replace.h5", SCRATCH);
+    unlink(to);
+    /* Nothing at the new name yet. */
+    write_file(from, "first");
+    CHECK_EQ_INT(dtx_file_replace(from, to, &left, &e), DTX_OK);
+    CHECK_EQ_INT(left, 0);
+    CHECK(strcmp(read_text(to, buf, sizeof buf), "first") == 0);
+    CHECK(access(from, F_OK) != 0);
+    /* Over an existing file: the new contents in place, the old ones gone
+     * (the exchange leaves them at `from` only until they are unlinked). */
+    write_file(from, "second");
+    CHECK_EQ_INT(dtx_file_replace(from, to, &left, &e), DTX_OK);
+    CHECK_EQ_INT(left, 0);
+    CHECK(strcmp(read_text(to, buf, sizeof buf), "second") == 0);
+    CHECK(access(from, F_OK) != 0);
+    /* Nothing to move: an error naming both paths, the target untouched. */
+    CHECK_EQ_INT(dtx_file_replace(from, to, &left, &e), DTX_EIO);
+    CHECK(strstr(e.msg, from) != NULL && strstr(e.msg, to) != NULL);
+    CHECK(strstr(e.msg, "No such file") != NULL);
+    CHECK(strcmp(read_text(to, buf, sizeof buf), "second") == 0);
+    unlink(to);
+}
+
 static void test_lock(void)
 {
     char out[512], lockp[512], host[256];
@@ -202,6 +247,7 @@ int main(void)
 {
     test_guard();
     test_base_name();
+    test_replace();
     test_lock();
     return check_report();
 }
