@@ -11,6 +11,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 const char *dtx_file_kind(mode_t mode)
@@ -206,7 +207,12 @@ dtx_status dtx_file_replace(const char *from, const char *to, int *old_left, dtx
      * without fsync: half a second for a 1.2 GB output).  Exchanging the
      * two names is as atomic for readers of `to` and starts no writeback;
      * the replaced file, now at `from`, is removed after. */
-    if (renameat2(AT_FDCWD, from, AT_FDCWD, to, RENAME_EXCHANGE) == 0) {
+    struct stat sb;
+    /* Only a regular file is exchanged: anything else at `to` (a directory,
+     * a socket) gets rename()'s own refusal, as before, rather than being
+     * moved to `from`. */
+    if (lstat(to, &sb) == 0 && S_ISREG(sb.st_mode) &&
+        renameat2(AT_FDCWD, from, AT_FDCWD, to, RENAME_EXCHANGE) == 0) {
         if (unlink(from) != 0)
             *old_left = 1;
         return DTX_OK;
