@@ -48,9 +48,10 @@
 /* ------------------------------------------------------------------ */
 
 typedef struct {
-    /* Active-set iterations per handle before giving up (then the last
-     * iterate, clamped to [0, 1], is used and counted in
-     * dtx_bbw_info.not_converged).  Default 100; >= 1. */
+    /* Global active-set iterations per handle before giving up (then the
+     * last iterate, clamped to [0, 1], is used and counted in
+     * dtx_bbw_info.not_converged); each is followed by at most 10 local
+     * ones (see dtx_bbw).  Default 100; >= 1. */
     int max_iter;
     /* 1 (default): divide each row by its sum, the partition of unity.  0:
      * leave the per-handle solutions as they are (each in [0, 1] with the
@@ -60,8 +61,10 @@ typedef struct {
 
 /* What dtx_bbw did. */
 typedef struct {
-    int iterations_max;          /* most active-set iterations of any handle */
+    int iterations_max;          /* most global active-set iterations of any handle */
     int64_t iterations_total;    /* over all handles (each is one factorisation) */
+    int64_t local_total;         /* local iterations over all handles (each one
+                                    factorisation of a small block; see dtx_bbw) */
     int32_t not_converged;       /* handles that reached max_iter */
     int32_t low_sum;             /* rows whose sum was below DTX_BBW_MIN_SUM (see dtx_bbw) */
     double sum_min, sum_max;     /* range of the row sums before normalisation */
@@ -87,7 +90,11 @@ void dtx_bbw_params_default(dtx_bbw_params *prm);
  * unconstrained minimiser; fix the vertices below 0 at 0 and above 1 at 1;
  * re-solve on the rest (a fresh CHOLMOD factorisation of Q on the free
  * vertices); release fixed vertices whose multiplier has the wrong sign;
- * repeat until the sets stop changing (typically 5 to 15 times).  Rows are
+ * repeat until the sets stop changing (typically 5 to 20 times).  Between
+ * two such global iterations, up to 10 local ones re-solve only near the
+ * vertices that changed (within 6 mesh rings), which moves the support's
+ * boundary out at the price of a small block (see bbw.c); the method ends
+ * only at a global iteration that changes nothing.  Rows are
  * then divided by their sums: the result satisfies w_k(h_j) = delta_jk
  * exactly, 0 <= w <= 1 and sum_k w_k = 1 to rounding.  (Dropping the
  * coupling is the usual practice; the normalised weights are not the exact
