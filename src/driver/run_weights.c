@@ -82,7 +82,7 @@ void run_weights_key(const dtx_mesh *mesh, const int32_t *handles, int32_t m, ch
     /* The version names the computation (dtx_bbw with its defaults): change
      * it with anything that changes the weights' bits, or old caches would
      * be taken for new ones. */
-    static const char tag[] = "dtx-bounded-biharmonic-weights-v1";
+    static const char tag[] = "dtx-bounded-biharmonic-weights-v2";
     uint64_t h = DTX_HASH_INIT, hm = dtx_mesh_hash(mesh);
     h = dtx_hash_bytes(h, tag, sizeof tag);
     h = dtx_hash_bytes(h, &hm, sizeof hm);
