@@ -401,9 +401,13 @@ done:
     return st;
 }
 
-dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t m, int32_t k0,
-                           int32_t k1, const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
-                           dtx_error *err)
+/* dtx_bbw_handles (claim NULL: handles k0..k1-1, row k - k0 of Wk) and
+ * dtx_bbw_handles_claim (k0 = 0, k1 = m: the handles claim hands out, row
+ * k of Wk). */
+static dtx_status handles_run(const dtx_mesh *mesh, const int32_t *handles, int32_t m, int32_t k0,
+                              int32_t k1, dtx_bbw_claim_fn claim, void *claim_ctx,
+                              const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                              dtx_error *err)
 {
     dtx__biharmonic sys;
     dtx_bbw_params defaults;
@@ -412,8 +416,9 @@ dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t
     double tol_lambda = 0.0;
     int32_t *order = NULL;
     int *iters = NULL, *locals = NULL, *conv = NULL;
+    unsigned char *mine = NULL;
     int nthreads = omp_get_max_threads();
-    int32_t failed = -1, nv, n = k1 - k0;
+    int32_t failed = -1, nv, n = k1 - k0, b0 = k0, b1 = k1;
     dtx_status st;
 
     memset(&inf, 0, sizeof inf);
@@ -453,7 +458,8 @@ dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t
     iters = dtx_alloc((size_t)n, sizeof *iters, 1);
     locals = dtx_alloc((size_t)n, sizeof *locals, 1);
     conv = dtx_alloc((size_t)n, sizeof *conv, 1);
-    if (!ws || !iters || !locals || !conv)
+    mine = dtx_alloc((size_t)n, 1, 1);
+    if (!ws || !iters || !locals || !conv || !mine)
         goto nomem;
     for (int t = 0; t < nthreads; t++)
         if (!ws_alloc(&ws[t], nv))
@@ -461,27 +467,47 @@ dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t
     if ((st = mesh_order(&sys.Q, nv, &order, err)) != DTX_OK)
         goto done;
 
-    /* One handle per iteration; each thread uses its own CHOLMOD workspace,
-     * and nothing else is shared but the read-only Q and disjoint rows of
-     * Wk. */
-#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads)
-    for (int32_t k = k0; k < k1; k++) {
-        thread_ws *w = &ws[omp_get_thread_num()];
-        dtx_status s = solve_handle(&sys.Q, nv, order, handles, m, k, prm->max_iter, tol_lambda, w,
-                                    Wk + (size_t)(k - k0) * nv, &iters[k - k0], &locals[k - k0],
-                                    &conv[k - k0]);
-        if (s != DTX_OK) {
-#pragma omp critical(dtx_bbw_error)
-            if (failed < 0 || k < failed) {
-                failed = k;
-                st = dtx_seterr(err, s, "handle %d (vertex %d): %s", (int)k, (int)handles[k],
-                                w->err.msg);
+    /* Batches of handles: [k0, k1) at once, or what claim hands out (at
+     * most one per thread at a time) until it has none left. */
+    while (failed < 0) {
+        if (claim) {
+            int32_t got = claim(claim_ctx, m, nthreads, &b0);
+            if (got <= 0)
+                break;
+            b1 = b0 + got;
+            if (b0 < 0 || b1 > m) {
+                st = dtx_seterr(err, DTX_ERANGE, "bounded biharmonic weights: claimed handles "
+                                "%d to %d of %d", (int)b0, (int)b1, (int)m);
+                goto done;
             }
         }
+        /* One handle per iteration; each thread uses its own CHOLMOD
+         * workspace, and nothing else is shared but the read-only Q and
+         * disjoint rows of Wk. */
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nthreads)
+        for (int32_t k = b0; k < b1; k++) {
+            thread_ws *w = &ws[omp_get_thread_num()];
+            dtx_status s = solve_handle(&sys.Q, nv, order, handles, m, k, prm->max_iter,
+                                        tol_lambda, w, Wk + (size_t)(k - k0) * nv,
+                                        &iters[k - k0], &locals[k - k0], &conv[k - k0]);
+            mine[k - k0] = 1;
+            if (s != DTX_OK) {
+#pragma omp critical(dtx_bbw_error)
+                if (failed < 0 || k < failed) {
+                    failed = k;
+                    st = dtx_seterr(err, s, "handle %d (vertex %d): %s", (int)k,
+                                    (int)handles[k], w->err.msg);
+                }
+            }
+        }
+        if (!claim)
+            break;
     }
     if (failed >= 0)
         goto done;
     for (int32_t k = 0; k < n; k++) {
+        if (!mine[k])
+            continue;
         inf.iterations_max = iters[k] > inf.iterations_max ? iters[k] : inf.iterations_max;
         inf.iterations_total += iters[k];
         inf.local_total += locals[k];
@@ -503,9 +529,27 @@ done:
     free(iters);
     free(locals);
     free(conv);
+    free(mine);
     free(order);
     dtx__biharmonic_free(&sys);
     return st;
+}
+
+dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t m, int32_t k0,
+                           int32_t k1, const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                           dtx_error *err)
+{
+    return handles_run(mesh, handles, m, k0, k1, NULL, NULL, prm, Wk, info, err);
+}
+
+dtx_status dtx_bbw_handles_claim(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                                 dtx_bbw_claim_fn claim, void *claim_ctx,
+                                 const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                                 dtx_error *err)
+{
+    if (!claim)
+        return dtx_seterr(err, DTX_EINVAL, "bounded biharmonic weights: no claim function");
+    return handles_run(mesh, handles, m, 0, m < 0 ? 0 : m, claim, claim_ctx, prm, Wk, info, err);
 }
 
 dtx_status dtx_bbw_normalise(const dtx_mesh *mesh, const int32_t *handles, int32_t m,

@@ -136,6 +136,26 @@ dtx_status dtx_bbw_normalise(const dtx_mesh *mesh, const int32_t *handles, int32
                              const double *Wk, const dtx_bbw_params *prm, double *W,
                              dtx_bbw_info *info, dtx_error *err);
 
+/* Hands out handles 0..m-1 to solve: sets *k0 and returns n >= 1 to give
+ * this caller handles *k0..*k0+n-1 (n <= want), or returns 0 when none are
+ * left.  Over all the callers sharing the handles (the ranks of a run,
+ * say), each handle must be handed out exactly once.  Called from the
+ * caller's thread only, outside any parallel region. */
+typedef int32_t (*dtx_bbw_claim_fn)(void *ctx, int32_t m, int32_t want, int32_t *k0);
+
+/* dtx_bbw_handles with the handles dealt out as they are asked for, so
+ * that callers whose programmes take longer get fewer of them: solves the
+ * handles claim hands out (asking for one per thread at a time) until it
+ * has none left, and writes handle k's row at Wk + k nv (Wk: m x nv,
+ * handle-major; other rows untouched).  The rows are the bits
+ * dtx_bbw_handles gives, whoever solves them.  info: as dtx_bbw_handles,
+ * over the handles solved here.  Errors: as dtx_bbw_handles; DTX_ERANGE
+ * when claim hands out handles outside [0, m); DTX_EINVAL (claim NULL). */
+dtx_status dtx_bbw_handles_claim(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                                 dtx_bbw_claim_fn claim, void *claim_ctx,
+                                 const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                                 dtx_error *err);
+
 /* Clamps every entry of W (nv x m) to [0, 1] and divides each row by its
  * sum, in place: the clamped-and-renormalised unbounded weights, an
  * approximation of the bounded ones.  Unbounded weights sum to 1 in every
