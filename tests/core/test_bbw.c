@@ -394,7 +394,8 @@ static void test_bbw(void)
             for (int32_t i = 0; i < nv; i++) {
                 double v = Wc[(size_t)k * nv + i];
                 if (handed ? v != Wk[(size_t)k * nv + i] : v != -7.0) {
-                    fprintf(stderr, "claimed rows: handle %d vertex %d: %.17g\n", (int)k, (int)i, v);
+                    fprintf(stderr, "claimed rows: handle %d vertex %d: %.17g\n", (int)k,
+                            (int)i, v);
                     CHECK(0);
                     k = m;
                     break;
