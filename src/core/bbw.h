@@ -48,9 +48,10 @@
 /* ------------------------------------------------------------------ */
 
 typedef struct {
-    /* Active-set iterations per handle before giving up (then the last
-     * iterate, clamped to [0, 1], is used and counted in
-     * dtx_bbw_info.not_converged).  Default 100; >= 1. */
+    /* Global active-set iterations per handle before giving up (then the
+     * last iterate, clamped to [0, 1], is used and counted in
+     * dtx_bbw_info.not_converged); each is followed by at most 10 local
+     * ones (see dtx_bbw).  Default 100; >= 1. */
     int max_iter;
     /* 1 (default): divide each row by its sum, the partition of unity.  0:
      * leave the per-handle solutions as they are (each in [0, 1] with the
@@ -60,8 +61,10 @@ typedef struct {
 
 /* What dtx_bbw did. */
 typedef struct {
-    int iterations_max;          /* most active-set iterations of any handle */
+    int iterations_max;          /* most global active-set iterations of any handle */
     int64_t iterations_total;    /* over all handles (each is one factorisation) */
+    int64_t local_total;         /* local iterations over all handles (each one
+                                    factorisation of a small block; see dtx_bbw) */
     int32_t not_converged;       /* handles that reached max_iter */
     int32_t low_sum;             /* rows whose sum was below DTX_BBW_MIN_SUM (see dtx_bbw) */
     double sum_min, sum_max;     /* range of the row sums before normalisation */
@@ -87,7 +90,11 @@ void dtx_bbw_params_default(dtx_bbw_params *prm);
  * unconstrained minimiser; fix the vertices below 0 at 0 and above 1 at 1;
  * re-solve on the rest (a fresh CHOLMOD factorisation of Q on the free
  * vertices); release fixed vertices whose multiplier has the wrong sign;
- * repeat until the sets stop changing (typically 5 to 15 times).  Rows are
+ * repeat until the sets stop changing (typically 5 to 20 times).  Between
+ * two such global iterations, up to 10 local ones re-solve only near the
+ * vertices that changed (within 6 mesh rings), which moves the support's
+ * boundary out at the price of a small block (see bbw.c); the method ends
+ * only at a global iteration that changes nothing.  Rows are
  * then divided by their sums: the result satisfies w_k(h_j) = delta_jk
  * exactly, 0 <= w <= 1 and sum_k w_k = 1 to rounding.  (Dropping the
  * coupling is the usual practice; the normalised weights are not the exact
@@ -128,6 +135,26 @@ dtx_status dtx_bbw_handles(const dtx_mesh *mesh, const int32_t *handles, int32_t
 dtx_status dtx_bbw_normalise(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
                              const double *Wk, const dtx_bbw_params *prm, double *W,
                              dtx_bbw_info *info, dtx_error *err);
+
+/* Hands out handles 0..m-1 to solve: sets *k0 and returns n >= 1 to give
+ * this caller handles *k0..*k0+n-1 (n <= want), or returns 0 when none are
+ * left.  Over all the callers sharing the handles (the ranks of a run,
+ * say), each handle must be handed out exactly once.  Called from the
+ * caller's thread only, outside any parallel region. */
+typedef int32_t (*dtx_bbw_claim_fn)(void *ctx, int32_t m, int32_t want, int32_t *k0);
+
+/* dtx_bbw_handles with the handles dealt out as they are asked for, so
+ * that callers whose programmes take longer get fewer of them: solves the
+ * handles claim hands out (asking for one per thread at a time) until it
+ * has none left, and writes handle k's row at Wk + k nv (Wk: m x nv,
+ * handle-major; other rows untouched).  The rows are the bits
+ * dtx_bbw_handles gives, whoever solves them.  info: as dtx_bbw_handles,
+ * over the handles solved here.  Errors: as dtx_bbw_handles; DTX_ERANGE
+ * when claim hands out handles outside [0, m); DTX_EINVAL (claim NULL). */
+dtx_status dtx_bbw_handles_claim(const dtx_mesh *mesh, const int32_t *handles, int32_t m,
+                                 dtx_bbw_claim_fn claim, void *claim_ctx,
+                                 const dtx_bbw_params *prm, double *Wk, dtx_bbw_info *info,
+                                 dtx_error *err);
 
 /* Clamps every entry of W (nv x m) to [0, 1] and divides each row by its
  * sum, in place: the clamped-and-renormalised unbounded weights, an

@@ -191,7 +191,8 @@ static dtx_status eval_exact(const kp_ctx *c, const int32_t *handles, int32_t m,
 /* The final set's bounded weights (into w->W), its own clustering and its
  * error, as eval_exact computes them, with the handles' programmes shared
  * out over the parts: part q solves handles [m q / P, m (q + 1) / P)
- * (dtx_bbw_handles), the other rows are +INFINITY, and the parts' rows are
+ * (dtx_bbw_handles), or those p->claim hands it (dtx_bbw_handles_claim),
+ * the other rows are +INFINITY, and the parts' rows are
  * put together by p->reduce (an element-wise minimum), so every part
  * normalises the same rows (dtx_bbw_normalise) and gets dtx_bbw's bits. */
 static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m, int threads,
@@ -211,7 +212,10 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
         return dtx_seterr(e, DTX_ENOMEM, "out of memory");
     for (int64_t i = 0; i < n; i++)
         Wk[i] = INFINITY;
-    st = dtx_bbw_handles(c->src, handles, m, k0, k1, NULL, Wk + (size_t)k0 * c->nv, NULL, e);
+    if (p->claim)
+        st = dtx_bbw_handles_claim(c->src, handles, m, p->claim, p->claim_ctx, NULL, Wk, NULL, e);
+    else
+        st = dtx_bbw_handles(c->src, handles, m, k0, k1, NULL, Wk + (size_t)k0 * c->nv, NULL, e);
     if (st == DTX_OK && (st = p->reduce(p->reduce_ctx, Wk, (int32_t)n, 1, e)) != DTX_OK)
         *reduce_failed = 1;
     if (st == DTX_OK)

@@ -64,14 +64,16 @@
  * candidate is the smallest error with ties to the lowest candidate index,
  * so the selection is bitwise the same for any number of threads and parts.
  * The final set's bounded weights (error_exact, weights) are shared out
- * over the parts by handle and put together through reduce, bitwise as one
- * part computes them.
+ * over the parts by handle (in fixed blocks, or as the parts ask for them
+ * through claim) and put together through reduce, bitwise as one part
+ * computes them.
  *
  * No printing; thread-safe (no shared state).
  */
 #ifndef DTX_KEYPOINTS_H
 #define DTX_KEYPOINTS_H
 
+#include "bbw.h"
 #include "mesh.h"
 #include "skinning.h"
 #include "status.h"
@@ -106,6 +108,12 @@ typedef struct {
     int part_index, part_count; /* this process's share of the candidates */
     dtx_kp_reduce_fn reduce;    /* NULL when part_count == 1 */
     void *reduce_ctx;
+    /* Several parts: NULL to split the final set's bounded weights into
+     * fixed blocks of handles, one per part; else the handles are dealt
+     * out by claim as the parts ask for them (dtx_bbw_handles_claim; each
+     * handle to exactly one part over all parts, whatever the timing). */
+    dtx_bbw_claim_fn claim;
+    void *claim_ctx;
 } dtx_kp_params;
 
 /* What the selection found. */

@@ -98,12 +98,26 @@ dtx_status dtx_keypoints_select_comm(const dtx_mesh *src, int32_t nframes, const
 {
     dtx_kp_params q = *p;
     MPI_Comm c = comm;
+    dtx_mpi_dealer dealer;
     dtx_status st;
     MPI_Comm_rank(comm, &q.part_index);
     MPI_Comm_size(comm, &q.part_count);
     q.reduce = q.part_count > 1 ? reduce_min : NULL;
     q.reduce_ctx = &c;
+    q.claim = NULL;
+    memset(&dealer, 0, sizeof dealer);
+    /* The final set's bounded weights are dealt out as the ranks ask for
+     * them: the programmes take unequal times. */
+    if (q.part_count > 1) {
+        if ((st = dtx_mpi_dealer_open(&dealer, comm, err)) != DTX_OK) {
+            memset(res, 0, sizeof *res);
+            return st;
+        }
+        q.claim = dtx_mpi_dealer_claim;
+        q.claim_ctx = &dealer;
+    }
     st = dtx_keypoints_select(src, nframes, X, &q, res, err);
+    dtx_mpi_dealer_close(&dealer);
     /* A rank whose own failure is the real one wins over ranks that only
      * heard of it from reduce_min ("another rank failed", DTX_EMPI). */
     if ((st = dtx_mpi_agree(st, DTX_AGREE_OWN_FIRST, comm, err)) != DTX_OK)

@@ -45,3 +45,59 @@ dtx_status dtx_mpi_agree(dtx_status st, unsigned flags, MPI_Comm comm, dtx_error
         dtx_error_prefix(err, "rank %d", first);
     return err->code != DTX_OK ? err->code : DTX_EMPI;
 }
+
+/* ------------------------------------------------------------------ */
+/* Dealer                                                              */
+/* ------------------------------------------------------------------ */
+
+dtx_status dtx_mpi_dealer_open(dtx_mpi_dealer *d, MPI_Comm comm, dtx_error *err)
+{
+    int64_t *base = NULL;
+    int rank, ok;
+    MPI_Comm_rank(comm, &rank);
+    memset(d, 0, sizeof *d);
+    d->win = MPI_WIN_NULL;
+    ok = MPI_Win_allocate(rank == 0 ? (MPI_Aint)sizeof *base : 0, (int)sizeof *base,
+                          MPI_INFO_NULL, comm, &base, &d->win) == MPI_SUCCESS;
+    /* The counter starts at 0 before any rank can reach it. */
+    if (ok && rank == 0) {
+        ok = MPI_Win_lock(MPI_LOCK_EXCLUSIVE, 0, 0, d->win) == MPI_SUCCESS;
+        if (ok) {
+            *base = 0;
+            ok = MPI_Win_unlock(0, d->win) == MPI_SUCCESS;
+        }
+    }
+    MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_LAND, comm);
+    if (ok)
+        ok = MPI_Win_lock_all(0, d->win) == MPI_SUCCESS;
+    MPI_Allreduce(MPI_IN_PLACE, &ok, 1, MPI_INT, MPI_LAND, comm);
+    if (!ok) {
+        if (d->win != MPI_WIN_NULL)
+            MPI_Win_free(&d->win);
+        return dtx_seterr(err, DTX_EMPI, "could not set up the sharing of work over the ranks "
+                          "(MPI one-sided communication)");
+    }
+    d->open = 1;
+    return DTX_OK;
+}
+
+int32_t dtx_mpi_dealer_claim(void *ctx, int32_t total, int32_t want, int32_t *k0)
+{
+    dtx_mpi_dealer *d = ctx;
+    int64_t inc = want, old = 0;
+    if (!d->open || want < 1 ||
+        MPI_Fetch_and_op(&inc, &old, MPI_INT64_T, 0, 0, MPI_SUM, d->win) != MPI_SUCCESS ||
+        MPI_Win_flush(0, d->win) != MPI_SUCCESS || old >= total)
+        return 0;
+    *k0 = (int32_t)old;
+    return total - old < want ? (int32_t)(total - old) : want;
+}
+
+void dtx_mpi_dealer_close(dtx_mpi_dealer *d)
+{
+    if (!d->open)
+        return;
+    MPI_Win_unlock_all(d->win);
+    MPI_Win_free(&d->win);
+    d->open = 0;
+}

@@ -12,6 +12,7 @@
 #include "status.h"
 
 #include <mpi.h>
+#include <stdint.h>
 
 /* Flags of dtx_mpi_agree (bitwise or; 0 for neither). */
 
@@ -41,5 +42,33 @@
  * failed).  Not thread-safe for one communicator; call it from the thread
  * that makes the rank's MPI calls. */
 dtx_status dtx_mpi_agree(dtx_status st, unsigned flags, MPI_Comm comm, dtx_error *err);
+
+/* A dealer of items 0..total-1 over the ranks of a communicator, for work
+ * whose pieces take unequal, unforeseeable times (the bounded weights'
+ * programmes): a counter on rank 0 that every rank advances by one-sided
+ * atomic fetch-and-add (MPI_Fetch_and_op), so a rank takes its next items
+ * when it is ready, without the others' taking part.  Which rank gets which
+ * item depends on timing: use it only for work whose results do not depend
+ * on who computes them. */
+typedef struct {
+    MPI_Win win;
+    int open;
+} dtx_mpi_dealer;
+
+/* Opens the dealer (collective over comm), its counter at 0.  DTX_EMPI on
+ * failure, the dealer then closed on every rank (the failure is agreed). */
+dtx_status dtx_mpi_dealer_open(dtx_mpi_dealer *d, MPI_Comm comm, dtx_error *err);
+
+/* Claims up to want of the items left of 0..total-1 (every rank passes the
+ * same total): sets *k0 and returns how many (the items *k0, *k0 + 1,
+ * ...), or 0 when none are left (or on an MPI failure, which the caller's
+ * own agreement then has to notice: the items such a rank claimed stay
+ * undone).  ctx is the dtx_mpi_dealer; the signature is
+ * dtx_bbw_claim_fn's.  Main thread only. */
+int32_t dtx_mpi_dealer_claim(void *ctx, int32_t total, int32_t want, int32_t *k0);
+
+/* Closes the dealer (collective; a closed or never opened one is left
+ * alone on every rank alike). */
+void dtx_mpi_dealer_close(dtx_mpi_dealer *d);
 
 #endif /* DTX_MPI_UTIL_H */

@@ -68,7 +68,7 @@ static void selection_key(const run_state *r, const dtx_kp_params *kp, char out[
 {
     /* The version names the selection and the bounded weights it keeps:
      * change it with anything that changes their bits. */
-    static const char tag[] = "dtx-keypoint-selection-v1";
+    static const char tag[] = "dtx-keypoint-selection-v2";
     uint64_t h = DTX_HASH_INIT, hm = dtx_mesh_hash(&r->src);
     const dtx_skin_params *s = &kp->skin;
     h = dtx_hash_bytes(h, tag, sizeof tag);

@@ -13,12 +13,12 @@
  *    (as correspondences are found again: a re-run or a resumed run with
  *    unchanged inputs does not solve again; a changed mesh or key point
  *    changes the key);
- *  - else they are computed: the m handles of a mesh are split into
- *    contiguous blocks, one per rank (rank q solves handles
- *    [m q / P, m (q + 1) / P)), each rank's rows are broadcast to the
- *    others, and every rank normalises the gathered rows alike
- *    (dtx_bbw_handles, dtx_bbw_normalise): bitwise what one rank computing
- *    everything would get, at any number of ranks and threads.
+ *  - else they are computed: the m handles of a mesh are dealt out to the
+ *    ranks as each asks for its next (dtx_mpi_dealer; the programmes take
+ *    unequal times, so a fixed split left one rank waiting), the rows are
+ *    gathered on every rank, and every rank normalises them alike
+ *    (dtx_bbw_handles_claim, dtx_bbw_normalise): bitwise what one rank
+ *    computing everything would get, at any number of ranks and threads.
  * This runs before the output is created, so the new partial stores every
  * target's weights (/weights/TARGET-source, /weights/TARGET-target) for the
  * next run.
@@ -26,7 +26,9 @@
 #include "run_internal.h"
 
 #include "bbw.h"
+#include "mpi_util.h"
 
+#include <math.h>
 #include <stdlib.h>
 #include <string.h>
 #include <unistd.h>
@@ -41,29 +43,40 @@ static void bcast_doubles(double *x, size_t n, MPI_Comm comm)
 }
 
 /* The weights (nv x m) of handles on mesh, computed by the ranks
- * together.  Collective; every rank gets the same bits or the same error. */
+ * together.  Collective; every rank gets the same bits or the same error.
+ * The handles are dealt out as the ranks ask for them (dtx_mpi_dealer:
+ * their programmes take unequal times), the rows of the others left at
+ * +INFINITY, and an element-wise minimum over the ranks puts the rows
+ * together: each row is the bits of the one rank that solved it. */
 static dtx_status shared_bbw(run_state *r, const dtx_mesh *mesh, const int32_t *handles,
                              int32_t m, double **W, dtx_error *err)
 {
-    size_t nv = (size_t)mesh->nv;
-    int32_t k0 = (int32_t)((int64_t)m * r->rank / r->nranks);
-    int32_t k1 = (int32_t)((int64_t)m * (r->rank + 1) / r->nranks);
+    size_t nv = (size_t)mesh->nv, n = nv * (size_t)m;
     double *Wk = dtx_alloc(nv, (size_t)m * sizeof *Wk, 0);
+    dtx_mpi_dealer dealer;
     dtx_status st;
 
     *W = dtx_alloc(nv, (size_t)m * sizeof **W, 0);
     st = Wk && *W ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    if (st == DTX_OK)
-        st = dtx_bbw_handles(mesh, handles, m, k0, k1, NULL, Wk + (size_t)k0 * nv, NULL, err);
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
         goto fail;
-    /* Handle k's row from the rank that solved it (nv doubles per call,
-     * below MPI's int count for any mesh dtx reads). */
-    for (int q = 0; q < r->nranks; q++) {
-        int32_t a = (int32_t)((int64_t)m * q / r->nranks);
-        int32_t b = (int32_t)((int64_t)m * (q + 1) / r->nranks);
-        for (int32_t k = a; k < b; k++)
-            MPI_Bcast(Wk + (size_t)k * nv, (int)nv, MPI_DOUBLE, q, r->comm);
+    if (r->nranks == 1) {
+        st = dtx_bbw_handles(mesh, handles, m, 0, m, NULL, Wk, NULL, err);
+    } else {
+        for (size_t i = 0; i < n; i++)
+            Wk[i] = INFINITY;
+        if ((st = dtx_mpi_dealer_open(&dealer, r->comm, err)) != DTX_OK)
+            goto fail;
+        st = dtx_bbw_handles_claim(mesh, handles, m, dtx_mpi_dealer_claim, &dealer, NULL, Wk,
+                                   NULL, err);
+        dtx_mpi_dealer_close(&dealer);
+    }
+    if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+        goto fail;
+    /* MPI counts are ints: in pieces. */
+    for (size_t off = 0; r->nranks > 1 && off < n; off += (size_t)1 << 30) {
+        size_t k = n - off < ((size_t)1 << 30) ? n - off : ((size_t)1 << 30);
+        MPI_Allreduce(MPI_IN_PLACE, Wk + off, (int)k, MPI_DOUBLE, MPI_MIN, r->comm);
     }
     st = dtx_bbw_normalise(mesh, handles, m, Wk, NULL, *W, NULL, err);
     if ((st = run_agree(r->comm, st, err)) != DTX_OK)
@@ -82,7 +95,7 @@ void run_weights_key(const dtx_mesh *mesh, const int32_t *handles, int32_t m, ch
     /* The version names the computation (dtx_bbw with its defaults): change
      * it with anything that changes the weights' bits, or old caches would
      * be taken for new ones. */
-    static const char tag[] = "dtx-bounded-biharmonic-weights-v1";
+    static const char tag[] = "dtx-bounded-biharmonic-weights-v2";
     uint64_t h = DTX_HASH_INIT, hm = dtx_mesh_hash(mesh);
     h = dtx_hash_bytes(h, tag, sizeof tag);
     h = dtx_hash_bytes(h, &hm, sizeof hm);

@@ -277,6 +277,23 @@ static void test_degenerate(void)
 /* Bounded weights                                                     */
 /* ------------------------------------------------------------------ */
 
+/* A claim function (dtx_bbw_claim_fn) handing out the handles of a list,
+ * one at a time. */
+typedef struct {
+    const int32_t *order;
+    int32_t n, next;
+} claim_list;
+
+static int32_t claim_next(void *ctx, int32_t m, int32_t want, int32_t *k0)
+{
+    claim_list *l = ctx;
+    (void)m;
+    if (want < 1 || l->next >= l->n)
+        return 0;
+    *k0 = l->order[l->next++];
+    return 1;
+}
+
 /* KKT conditions of each handle's programme (normalise = 0). */
 static void check_kkt(const dtx_mesh *m, const double *W, const int32_t *h, int32_t mh)
 {
@@ -356,6 +373,45 @@ static void test_bbw(void)
     CHECK_OK(dtx_bbw(&cap, h, m, NULL, W1, NULL, &err), &err);
     CHECK(memcmp(W, W1, (size_t)nv * m * sizeof *W) == 0);
     omp_set_num_threads(2);
+
+    /* Handles dealt out by a claim function, in any order and any batch
+     * size, give the rows of dtx_bbw_handles bit for bit, and leave the
+     * rows they were not handed alone. */
+    {
+        double *Wk = malloc((size_t)nv * m * sizeof *Wk), *Wc = malloc((size_t)nv * m * sizeof *Wc);
+        static const int32_t order_a[] = {4, 1, 3, 0, 2}, order_b[] = {3, 1};
+        claim_list la = {order_a, 5, 0}, lb = {order_b, 2, 0}, lbad = {order_a, 5, 0};
+        static const int32_t bad[] = {5};
+        CHECK_OK(dtx_bbw_handles(&cap, h, m, 0, m, NULL, Wk, NULL, &err), &err);
+        CHECK_OK(dtx_bbw_handles_claim(&cap, h, m, claim_next, &la, NULL, Wc, NULL, &err), &err);
+        CHECK(memcmp(Wk, Wc, (size_t)nv * m * sizeof *Wk) == 0);
+        CHECK_EQ_INT(la.next, 5);
+        for (size_t i = 0; i < (size_t)nv * m; i++)
+            Wc[i] = -7.0;
+        CHECK_OK(dtx_bbw_handles_claim(&cap, h, m, claim_next, &lb, NULL, Wc, &info, &err), &err);
+        for (int32_t k = 0; k < m; k++) {
+            int handed = k == 1 || k == 3;
+            for (int32_t i = 0; i < nv; i++) {
+                double v = Wc[(size_t)k * nv + i];
+                if (handed ? v != Wk[(size_t)k * nv + i] : v != -7.0) {
+                    fprintf(stderr, "claimed rows: handle %d vertex %d: %.17g\n", (int)k,
+                            (int)i, v);
+                    CHECK(0);
+                    k = m;
+                    break;
+                }
+            }
+        }
+        CHECK_INT(info.iterations_max, >=, 2);
+        lbad.order = bad;
+        lbad.n = 1;
+        CHECK_EQ_INT(dtx_bbw_handles_claim(&cap, h, m, claim_next, &lbad, NULL, Wc, NULL, &err),
+                     DTX_ERANGE);
+        CHECK_EQ_INT(dtx_bbw_handles_claim(&cap, h, m, NULL, NULL, NULL, Wc, NULL, &err),
+                     DTX_EINVAL);
+        free(Wk);
+        free(Wc);
+    }
 
     /* Without normalisation: each column is its programme's exact
      * minimiser. */

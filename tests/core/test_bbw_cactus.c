@@ -145,9 +145,13 @@ int main(void)
     check_weights(W, nv, cand, m, 1e-12, 0.0, 1.0);
     CHECK_EQ_INT(info.not_converged, 0);
     CHECK_EQ_INT(info.low_sum, 0);
-    printf("bbw, 10 handles: %d active-set iterations at most (%lld in all), row sums before "
-           "normalising in [%.4f, %.4f]\n",
-           info.iterations_max, (long long)info.iterations_total, info.sum_min, info.sum_max);
+    /* The local steps ran (they are what the KKT check above covers
+     * besides the global iterations). */
+    CHECK(info.local_total > 0);
+    printf("bbw, 10 handles: %d active-set iterations at most (%lld in all, and %lld local "
+           "ones), row sums before normalising in [%.4f, %.4f]\n",
+           info.iterations_max, (long long)info.iterations_total, (long long)info.local_total,
+           info.sum_min, info.sum_max);
 
     /* Unbounded weights: bound violations, and how far their clamped
      * version is from the bounded weights. */

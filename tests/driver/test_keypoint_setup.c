@@ -15,6 +15,7 @@
 #include "dtx_core.h"
 #include "h5layout.h"
 #include "keypoint_setup.h"
+#include "mpi_util.h"
 
 #include <mpi.h>
 #include <string.h>
@@ -204,6 +205,33 @@ static void test_map_and_labels(const dtx_mesh *m)
     free(def);
 }
 
+/* The dealer hands out every item exactly once, in batches of at most
+ * what is asked, then nothing (one rank here; driver.biharmonic runs it on
+ * two, where the results must not depend on who got which). */
+static void test_dealer(void)
+{
+    dtx_mpi_dealer d;
+    dtx_error e;
+    int32_t k0 = -1, got[7] = {0}, n, total = 0;
+    CHECK_OK(dtx_mpi_dealer_open(&d, MPI_COMM_WORLD, &e), &e);
+    while ((n = dtx_mpi_dealer_claim(&d, 7, 3, &k0)) > 0) {
+        CHECK_INT(n, <=, 3);
+        CHECK(k0 >= 0 && k0 + n <= 7);
+        for (int32_t k = k0; k < k0 + n && k < 7; k++)
+            got[k]++;
+        total += n;
+        if (total > 7)
+            break;
+    }
+    CHECK_EQ_INT(total, 7);
+    for (int k = 0; k < 7; k++)
+        CHECK_EQ_INT(got[k], 1);
+    CHECK_EQ_INT(dtx_mpi_dealer_claim(&d, 7, 1, &k0), 0);
+    dtx_mpi_dealer_close(&d);
+    dtx_mpi_dealer_close(&d); /* closing twice is harmless */
+    CHECK_EQ_INT(dtx_mpi_dealer_claim(&d, 7, 1, &k0), 0);
+}
+
 int main(int argc, char **argv)
 {
     dtx_mesh m = {0};
@@ -212,6 +240,7 @@ int main(int argc, char **argv)
     MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
     dtx_h5_init();
     test_training_frames();
+    test_dealer();
     CHECK_OK(gen_capsule(16, 10, 2.0, &m), &e);
     test_read_training(&m);
     test_map_and_labels(&m);
