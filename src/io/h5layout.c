@@ -2859,47 +2859,47 @@ dtx_status dtx_h5_result_add_frame_stats(dtx_h5_result *res, dtx_error *err)
     return st;
 }
 
+/* Frames [first, first + count) of a per-frame dataset of a result
+ * (frame_stats: rank 2 with inner columns; frame_grad_norm: rank 1), read
+ * or written (collective: as for the positions) in memory type mtype. */
+static dtx_status per_frame_io(const dtx_h5_result *res, hid_t dset, const char *name, int write,
+                               int rank, const hsize_t *inner, hid_t mtype, void *buf,
+                               int64_t first, int64_t count, int collective, dtx_error *err)
+{
+    char path[DTX_H5_PATH_MAX];
+    hid_t dxpl = H5P_DEFAULT;
+    dtx_status st;
+    join_path(res->path, name, path, sizeof path);
+    if (dset < 0)
+        return ferr(err, DTX_EINVAL, res->file, path, "the result has no %s", name);
+    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
+        return st;
+    if (count == 0 && (!write || !res->parallel || !collective))
+        return DTX_OK;
+    if (write && (dxpl = make_dxpl(res->parallel, collective)) < 0)
+        return h5err(err, res->file, path, "cannot set up collective transfer");
+    if (slab_io(dset, write, rank, first, count, inner, mtype, buf, dxpl) < 0)
+        st = h5err(err, res->file, path, "cannot %s frames [%lld, %lld)", write ? "write" : "read",
+                   (long long)first, (long long)(first + count));
+    if (write)
+        close_dxpl(dxpl);
+    return st;
+}
+
 dtx_status dtx_h5_result_write_frame_stats(dtx_h5_result *res, int64_t first, int64_t count,
                                            const int32_t *stats, int collective, dtx_error *err)
 {
     static const hsize_t inner[1] = {DTX_H5_FRAME_STATS};
-    char path[DTX_H5_PATH_MAX];
-    hid_t dxpl;
-    dtx_status st = DTX_OK;
-    join_path(res->path, "frame_stats", path, sizeof path);
-    if (res->frame_stats < 0)
-        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_stats");
-    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
-        return st;
-    if (count == 0 && (!res->parallel || !collective))
-        return DTX_OK;
-    dxpl = make_dxpl(res->parallel, collective);
-    if (dxpl < 0)
-        return h5err(err, res->file, path, "cannot set up collective transfer");
-    if (slab_io(res->frame_stats, 1, 2, first, count, inner, H5T_NATIVE_INT32, (void *)stats,
-                dxpl) < 0)
-        st = h5err(err, res->file, path, "cannot write frames [%lld, %lld)", (long long)first,
-                   (long long)(first + count));
-    close_dxpl(dxpl);
-    return st;
+    return per_frame_io(res, res->frame_stats, "frame_stats", 1, 2, inner, H5T_NATIVE_INT32,
+                        (void *)stats, first, count, collective, err);
 }
 
 dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t first,
                                           int64_t count, int32_t *stats, dtx_error *err)
 {
     static const hsize_t inner[1] = {DTX_H5_FRAME_STATS};
-    char path[DTX_H5_PATH_MAX];
-    dtx_status st;
-    join_path(res->path, "frame_stats", path, sizeof path);
-    if (res->frame_stats < 0)
-        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_stats");
-    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
-        return st;
-    if (count > 0 && slab_io(res->frame_stats, 0, 2, first, count, inner, H5T_NATIVE_INT32,
-                             stats, H5P_DEFAULT) < 0)
-        return h5err(err, res->file, path, "cannot read frames [%lld, %lld)", (long long)first,
-                     (long long)(first + count));
-    return DTX_OK;
+    return per_frame_io(res, res->frame_stats, "frame_stats", 0, 2, inner, H5T_NATIVE_INT32,
+                        stats, first, count, 0, err);
 }
 
 dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err)
@@ -2922,42 +2922,15 @@ dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first
                                                const double *grad_norm, int collective,
                                                dtx_error *err)
 {
-    char path[DTX_H5_PATH_MAX];
-    hid_t dxpl;
-    dtx_status st = DTX_OK;
-    join_path(res->path, "frame_grad_norm", path, sizeof path);
-    if (res->frame_grad_norm < 0)
-        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_grad_norm");
-    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
-        return st;
-    if (count == 0 && (!res->parallel || !collective))
-        return DTX_OK;
-    dxpl = make_dxpl(res->parallel, collective);
-    if (dxpl < 0)
-        return h5err(err, res->file, path, "cannot set up collective transfer");
-    if (slab_io(res->frame_grad_norm, 1, 1, first, count, NULL, H5T_NATIVE_DOUBLE,
-                (void *)grad_norm, dxpl) < 0)
-        st = h5err(err, res->file, path, "cannot write frames [%lld, %lld)", (long long)first,
-                   (long long)(first + count));
-    close_dxpl(dxpl);
-    return st;
+    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 1, 1, NULL,
+                        H5T_NATIVE_DOUBLE, (void *)grad_norm, first, count, collective, err);
 }
 
 dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
                                               int64_t count, double *grad_norm, dtx_error *err)
 {
-    char path[DTX_H5_PATH_MAX];
-    dtx_status st;
-    join_path(res->path, "frame_grad_norm", path, sizeof path);
-    if (res->frame_grad_norm < 0)
-        return ferr(err, DTX_EINVAL, res->file, path, "the result has no frame_grad_norm");
-    if ((st = check_frames(res->file, path, res->nframes, first, count, err)) != DTX_OK)
-        return st;
-    if (count > 0 && slab_io(res->frame_grad_norm, 0, 1, first, count, NULL, H5T_NATIVE_DOUBLE,
-                             grad_norm, H5P_DEFAULT) < 0)
-        return h5err(err, res->file, path, "cannot read frames [%lld, %lld)", (long long)first,
-                     (long long)(first + count));
-    return DTX_OK;
+    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 0, 1, NULL,
+                        H5T_NATIVE_DOUBLE, grad_norm, first, count, 0, err);
 }
 
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,

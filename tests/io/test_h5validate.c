@@ -521,6 +521,16 @@ static void test_bad_nan_result(void)
                "2 results, 12 of 12 frames checked (finite)");
 }
 
+/* Marks /results/lion's frames by flags (frame_done) and the result not
+ * complete. */
+static void mark_not_done(hid_t f, const uint8_t *flags)
+{
+    dtx_error e;
+    put_done(f, "/results/lion/frame_done", flags);
+    CHECK(H5Adelete_by_name(f, "/results/lion", "complete", H5P_DEFAULT) >= 0);
+    CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", 0, &e), &e);
+}
+
 /* A NaN in a frame not done (complete = 0) is allowed: such frames hold
  * undefined values.  The summary says how many frames were checked. */
 static void test_nan_not_done(void)
@@ -530,13 +540,10 @@ static void test_nan_not_done(void)
     dtx_error e;
     char *report = NULL;
     hid_t f;
-    int32_t zero = 0;
     make_good(path);
     f = reopen(path);
     put_coord(f, "/results/lion/positions", 3, 2, 1, NAN);
-    put_done(f, "/results/lion/frame_done", flags);
-    CHECK(H5Adelete_by_name(f, "/results/lion", "complete", H5P_DEFAULT) >= 0);
-    CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", zero, &e), &e);
+    mark_not_done(f, flags);
     done(f);
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
     CHECK(check_contains(report, "/results/lion: ok\n"));
@@ -570,7 +577,6 @@ static void test_grad_norm(void)
     dtx_error e;
     char *report = NULL;
     hid_t f;
-    int32_t zero = 0;
 
     make_good(path);
     put_grad_norm(path, good);
@@ -601,9 +607,7 @@ static void test_grad_norm(void)
     make_good(path);
     put_grad_norm(path, g);
     f = reopen(path);
-    put_done(f, "/results/lion/frame_done", flags);
-    CHECK(H5Adelete_by_name(f, "/results/lion", "complete", H5P_DEFAULT) >= 0);
-    CHECK_OK(dtx_h5_write_attr_int(f, "/results/lion", "complete", zero, &e), &e);
+    mark_not_done(f, flags);
     done(f);
     CHECK_OK(dtx_h5_validate(path, &report, &e), &e);
     CHECK(check_contains(report, "/results/lion: ok\n"));
