@@ -2898,8 +2898,8 @@ dtx_status dtx_h5_result_read_frame_stats(const dtx_h5_result *res, int64_t firs
                                           int64_t count, int32_t *stats, dtx_error *err)
 {
     static const hsize_t inner[1] = {DTX_H5_FRAME_STATS};
-    return per_frame_io(res, res->frame_stats, "frame_stats", 0, 2, inner, H5T_NATIVE_INT32,
-                        stats, first, count, 0, err);
+    return per_frame_io(res, res->frame_stats, "frame_stats", 0, 2, inner, H5T_NATIVE_INT32, stats,
+                        first, count, 0, err);
 }
 
 dtx_status dtx_h5_result_add_frame_grad_norm(dtx_h5_result *res, dtx_error *err)
@@ -2922,15 +2922,15 @@ dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first
                                                const double *grad_norm, int collective,
                                                dtx_error *err)
 {
-    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 1, 1, NULL,
-                        H5T_NATIVE_DOUBLE, (void *)grad_norm, first, count, collective, err);
+    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 1, 1, NULL, H5T_NATIVE_DOUBLE,
+                        (void *)grad_norm, first, count, collective, err);
 }
 
 dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
                                               int64_t count, double *grad_norm, dtx_error *err)
 {
-    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 0, 1, NULL,
-                        H5T_NATIVE_DOUBLE, grad_norm, first, count, 0, err);
+    return per_frame_io(res, res->frame_grad_norm, "frame_grad_norm", 0, 1, NULL, H5T_NATIVE_DOUBLE,
+                        grad_norm, first, count, 0, err);
 }
 
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,
