@@ -342,6 +342,7 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
     cholmod_sparse *K = NULL;
     cholmod_factor *L = NULL;
     cholmod_dense *B = NULL, *Xs = NULL;
+    dtx__chol_refactor R = {NULL, NULL};
     int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL, *qorder = NULL;
     double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
            *cp = NULL, *wtri = NULL, *wvert = NULL;
@@ -485,6 +486,8 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         }
     }
     st = dtx__chol_analyze(K, "the correspondence system", &L, &cc, err);
+    if (st == DTX_OK)
+        st = dtx__chol_refactor_start(K, L, &R, &cc, err);
     if (st != DTX_OK)
         goto fail;
     B = cholmod_zeros((size_t)nfree, 3, CHOLMOD_REAL, &cc);
@@ -535,8 +538,9 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
          * (the later phases at the final weight once the fit has settled). */
         if (phase == 0 || wc != wc_prev || memcmp(valid, valid_prev, (size_t)nv) != 0) {
             snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
-            st = dtx__chol_factorize(K, DTX__CHOL_NO_TEAMS, system,
-                                     "; are the markers spread over the whole mesh?", L, &cc, err);
+            st = dtx__chol_factorize_again(K, &R, DTX__CHOL_NO_TEAMS, system,
+                                           "; are the markers spread over the whole mesh?", L,
+                                           &cc, err);
             if (st != DTX_OK)
                 goto fail;
             (*factorizations)++;
@@ -565,6 +569,7 @@ nomem:
 fail:
     cholmod_free_dense(&Xs, &cc);
     cholmod_free_dense(&B, &cc);
+    dtx__chol_refactor_free(&R, &cc);
     cholmod_free_factor(&L, &cc);
     cholmod_free_sparse(&K, &cc);
     cholmod_free_triplet(&T, &cc);
