@@ -29,6 +29,7 @@
 
 #include <cholmod.h>
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -166,6 +167,113 @@ static void tet_term(const dtx__tet *q, term *t, double sign)
     term_add(t, q->var[1], r, sign);
     term_add(t, q->var[2], r + 3, sign);
     term_add(t, q->var[3], r + 6, sign);
+}
+
+/* What cholmod_triplet_to_sparse(T, T->nnz) makes of T (square, stype
+ * -1, every entry in the lower triangle), on two threads: the entries of
+ * each column, rows sorted, duplicates summed in T's order (the first one's
+ * value, then each later one added), so the same matrix bit for bit.  The
+ * triplets are put in column buckets in their order (two halves counted
+ * apart, the first half's entries first), then each column is summed and
+ * sorted on its own.  NULL when out of memory. */
+static cholmod_sparse *lower_triplet_to_csc(const cholmod_triplet *T, cholmod_common *cc)
+{
+    const int32_t n = (int32_t)T->ncol, *Ti = T->i, *Tj = T->j;
+    const double *Tx = T->x;
+    const int64_t nz = (int64_t)T->nnz, half = nz / 2;
+    int64_t *start = dtx_alloc((size_t)n + 1, 2 * sizeof *start, 1);
+    int32_t *bi = dtx_alloc((size_t)nz + 1, sizeof *bi, 0), *cnt = NULL;
+    double *bx = dtx_alloc((size_t)nz + 1, sizeof *bx, 0);
+    cholmod_sparse *A = NULL;
+    int32_t *Ap, *Ai;
+    double *Ax;
+    int failed = 0;
+
+    if (!start || !bi || !bx)
+        goto done;
+    /* start[2 j + h]: where half h's entries of column j begin. */
+    for (int64_t k = 0; k < nz; k++)
+        start[2 * (size_t)Tj[k] + (k >= half) + 1]++;
+    for (size_t q = 1; q < 2 * (size_t)n + 2; q++)
+        start[q] += start[q - 1];
+#pragma omp parallel for schedule(static)
+    for (int h = 0; h < 2; h++)
+        for (int64_t k = h ? half : 0; k < (h ? nz : half); k++) {
+            int64_t p = start[2 * (size_t)Tj[k] + h]++;
+            bi[p] = Ti[k];
+            bx[p] = Tx[k];
+        }
+    /* Now start[2 j + 1] is the end of column j (and start[2 j - 1] its
+     * beginning).  Sum duplicates and sort each column where it lies. */
+    cnt = dtx_alloc((size_t)n + 1, sizeof *cnt, 1);
+    if (!cnt)
+        goto done;
+#pragma omp parallel
+    {
+        int32_t *slot = dtx_alloc((size_t)n, sizeof *slot, 0);
+        if (!slot) {
+#pragma omp atomic write
+            failed = 1;
+        } else {
+            for (int32_t i = 0; i < n; i++)
+                slot[i] = -1;
+#pragma omp for schedule(dynamic, 1024)
+            for (int32_t j = 0; j < n; j++) {
+                const int64_t p0 = j ? start[2 * (size_t)j - 1] : 0, p1 = start[2 * (size_t)j + 1];
+                int64_t w = p0;
+                for (int64_t p = p0; p < p1; p++) {
+                    const int32_t i = bi[p];
+                    if (slot[i] >= 0) {
+                        bx[p0 + slot[i]] += bx[p];
+                    } else {
+                        slot[i] = (int32_t)(w - p0);
+                        bi[w] = i;
+                        bx[w] = bx[p];
+                        w++;
+                    }
+                }
+                for (int64_t p = p0; p < w; p++)
+                    slot[bi[p]] = -1;
+                /* Insertion sort by row: columns hold a few dozen entries. */
+                for (int64_t p = p0 + 1; p < w; p++) {
+                    const int32_t i = bi[p];
+                    const double x = bx[p];
+                    int64_t q = p;
+                    for (; q > p0 && bi[q - 1] > i; q--) {
+                        bi[q] = bi[q - 1];
+                        bx[q] = bx[q - 1];
+                    }
+                    bi[q] = i;
+                    bx[q] = x;
+                }
+                cnt[j + 1] = (int32_t)(w - p0);
+            }
+            free(slot);
+        }
+    }
+    if (failed)
+        goto done;
+    for (int32_t j = 0; j < n; j++)
+        cnt[j + 1] += cnt[j];
+    A = cholmod_allocate_sparse((size_t)n, (size_t)n, (size_t)cnt[n], 1, 1, -1, CHOLMOD_REAL, cc);
+    if (!A)
+        goto done;
+    Ap = A->p;
+    Ai = A->i;
+    Ax = A->x;
+    memcpy(Ap, cnt, ((size_t)n + 1) * sizeof *Ap);
+#pragma omp parallel for schedule(static)
+    for (int32_t j = 0; j < n; j++) {
+        const int64_t p0 = j ? start[2 * (size_t)j - 1] : 0;
+        memcpy(Ai + Ap[j], bi + p0, (size_t)(Ap[j + 1] - Ap[j]) * sizeof *Ai);
+        memcpy(Ax + Ap[j], bx + p0, (size_t)(Ap[j + 1] - Ap[j]) * sizeof *Ax);
+    }
+done:
+    free(start);
+    free(bi);
+    free(bx);
+    free(cnt);
+    return A;
 }
 
 /* ------------------------------------------------------------------ */
@@ -463,7 +571,7 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
                 ((int32_t *)T->j)[k] = freeidx[v];
                 ((double *)T->x)[k] = 0.0;
             }
-        K = cholmod_triplet_to_sparse(T, T->nnz, &cc);
+        K = lower_triplet_to_csc(T, &cc);
         cholmod_free_triplet(&T, &cc);
         if (!K)
             goto nomem;
