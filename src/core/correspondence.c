@@ -704,11 +704,11 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
                             const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
                             const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, int *factorizations,
-                            dtx_error *err)
+                            unsigned char *valid_out, int32_t *closest_out, int *solves,
+                            int *factorizations, dtx_error *err)
 {
     return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, tets, ntetpairs, tbvh, tnormals, prm, X,
-                       valid_out, NULL, solves, factorizations, err);
+                       valid_out, closest_out, solves, factorizations, err);
 }
 
 /* ------------------------------------------------------------------ */

@@ -63,14 +63,16 @@ int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const do
  * w_I |Tb - I|^2 (Zhou et al.'s E_R; NULL, 0 for none).  Phases as in the
  * file comment of correspondence.c.  X (nv x 3, in: the start, normally
  * S0; out: the result); valid_out (nv, may be NULL): 1 for the vertices
- * that had a valid closest point in the last phase; *solves counts the
+ * that had a valid closest point in the last phase; closest_out (nv, may be
+ * NULL): each vertex's last closest valid primitive of tbvh (-1: none in
+ * any phase), a search hint for dtx__fit_rms_from; *solves counts the
  * solves and *factorizations the numeric factorisations (a phase whose
  * matrix equals the previous phase's reuses its factor). */
 dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
                             const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
                             const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, int *factorizations,
-                            dtx_error *err);
+                            unsigned char *valid_out, int32_t *closest_out, int *solves,
+                            int *factorizations, dtx_error *err);
 
 #endif /* DTX_CORRESPONDENCE_INTERNAL_H */
