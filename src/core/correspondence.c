@@ -680,8 +680,23 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         }
     }
     st = dtx__chol_analyze(K, "the correspondence system", &L, &cc, err);
-    if (st == DTX_OK)
+    if (st != DTX_OK)
+        goto fail;
+    /* A supernodal factor's values are allocated here as its first
+     * factorisation would allocate them (which then reuses them: it clears
+     * each supernode before filling it, so the bits are the same), and
+     * paged in by a second thread while this one prepares the
+     * refactorisations, instead of by the first factorisation. */
+    if (L->is_super && !cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, L, &cc))
+        goto nomem;
+#pragma omp parallel sections
+    {
+#pragma omp section
         st = dtx__chol_refactor_start(K, L, &R, &cc, err);
+#pragma omp section
+        if (L->is_super)
+            memset(L->x, 0, L->xsize * sizeof(double));
+    }
     if (st != DTX_OK)
         goto fail;
     B = cholmod_zeros((size_t)nfree, 3, CHOLMOD_REAL, &cc);
