@@ -22,8 +22,8 @@
  * region inactive.  (It used to be called from the first thread of a team
  * of two while the second waited: on the pebble camel's seven
  * correspondence factorisations the waiting thread and the nested teams'
- * wake-ups cost 0.4 to 0.5 s of the calling thread's CPU time and as much
- * of the other core's.)  The loops only copy and clear, so the result is
+ * wake-ups cost 0.4 to 0.5 s of the calling thread's CPU time and 0.5 to
+ * 1 s of the process's.)  The loops only copy and clear, so the result is
  * the same bits either way.
  */
 #ifndef DTX_CHOLMOD_UTIL_H

@@ -801,8 +801,8 @@ dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const doub
                             unsigned char *valid_out, int32_t *closest_out, int *solves,
                             int *factorizations, dtx_error *err)
 {
-    return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, make_tets, tets_ctx, tbvh, tnormals, prm, X,
-                       valid_out, closest_out, solves, factorizations, err);
+    return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, make_tets, tets_ctx, tbvh, tnormals, prm,
+                       X, valid_out, closest_out, solves, factorizations, err);
 }
 
 /* ------------------------------------------------------------------ */

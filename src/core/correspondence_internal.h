@@ -69,9 +69,8 @@ int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const do
  * vertices fixv held at fixpos (nfix x 3), plus for each of the ntetpairs
  * pairs (tets[2k], tets[2k+1]) that make_tets(tets_ctx, ...) makes the
  * terms w_S |Ta - Tb|^2 + w_I |Ta - I|^2 + w_I |Tb - I|^2 (Zhou et al.'s
- * E_R; make_tets NULL for none).  A failure of make_tets is returned as it
- * is.  Phases as in the
- * file comment of correspondence.c.  X (nv x 3, in: the start, normally
+ * E_R; make_tets NULL for none; its failure is returned as it is).  Phases
+ * as in the file comment of correspondence.c.  X (nv x 3, in: the start, normally
  * S0; out: the result); valid_out (nv, may be NULL): 1 for the vertices
  * that had a valid closest point in the last phase; closest_out (nv, may be
  * NULL): each vertex's last closest valid primitive of tbvh (-1: none in
