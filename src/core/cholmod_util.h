@@ -17,15 +17,21 @@
  * without (2 to 10 s with OMP_THREAD_LIMIT=2); a springs Newton step went
  * from 0.2 s to 7.9 s on a busy machine.  Inside an active parallel region
  * nested regions get one thread (OpenMP's default max-active-levels is 1),
- * so outside one the factorisation is called from the first thread of a
- * team of two while the second waits, and inside one it is called
- * directly.  The loops only copy and clear, so the result is the same bits
- * either way.
+ * so there the factorisation is called directly; outside one it is called
+ * with max-active-levels set to 0 for its duration, which makes every
+ * region inactive.  (It used to be called from the first thread of a team
+ * of two while the second waited: on the pebble camel's seven
+ * correspondence factorisations the waiting thread and the nested teams'
+ * wake-ups cost 0.4 to 0.5 s of the calling thread's CPU time and 0.5 to
+ * 1 s of the process's.)  The loops only copy and clear, so the result is
+ * the same bits either way.
  */
 #ifndef DTX_CHOLMOD_UTIL_H
 #define DTX_CHOLMOD_UTIL_H
 
 #include "status.h"
+
+#include <stdint.h>
 
 #include <cholmod.h>
 
@@ -78,6 +84,38 @@ dtx_status dtx__chol_analyze(cholmod_sparse *A, const char *system, cholmod_fact
 dtx_status dtx__chol_factorize(cholmod_sparse *A, dtx__chol_threads threads, const char *system,
                                const char *hint, cholmod_factor *L, cholmod_common *cc,
                                dtx_error *err);
+
+/* The matrix that cholmod_factorize hands to the supernodal factorisation,
+ * kept across numeric factorisations of one pattern.  For a symmetric A
+ * stored as its lower triangle and a supernodal L with a fill-reducing
+ * permutation p, cholmod_factorize transposes A twice (into triu(A(p,p))
+ * and back into tril(A(p,p))) on every call before factorising; on the
+ * 174,000-unknown correspondence system that is a tenth of each
+ * factorisation.  The refactorisation makes those transposes once, with
+ * each entry's position in A recorded, and afterwards only copies A's
+ * values into place: the same matrix, so the same factor, bit for bit. */
+typedef struct {
+    cholmod_sparse *S; /* tril(A(p,p)); NULL: refactorise with cholmod_factorize */
+    int32_t *src;      /* S->nzmax: the entry of A->x that S->x[q] holds */
+} dtx__chol_refactor;
+
+/* Prepares R for refactorising matrices of A's pattern into L (analysed
+ * from A).  When L is not supernodal, has the natural ordering or A is not
+ * symmetric-lower, R->S stays NULL and dtx__chol_factorize_again calls
+ * cholmod_factorize.  DTX_ENOMEM (err says so) when out of memory.  Release
+ * with dtx__chol_refactor_free. */
+dtx_status dtx__chol_refactor_start(cholmod_sparse *A, const cholmod_factor *L,
+                                    dtx__chol_refactor *R, cholmod_common *cc, dtx_error *err);
+
+/* dtx__chol_factorize of A (the pattern R was prepared from, any values)
+ * into L: the same result, bit for bit, without the transposes. */
+dtx_status dtx__chol_factorize_again(cholmod_sparse *A, dtx__chol_refactor *R,
+                                     dtx__chol_threads threads, const char *system,
+                                     const char *hint, cholmod_factor *L, cholmod_common *cc,
+                                     dtx_error *err);
+
+/* Frees R's matrix and map (R may be unprepared, all NULL). */
+void dtx__chol_refactor_free(dtx__chol_refactor *R, cholmod_common *cc);
 
 /* dtx__chol_analyze then dtx__chol_factorize into *L; on failure *L is
  * NULL (no factor is left behind). */

@@ -29,6 +29,7 @@
 
 #include <cholmod.h>
 #include <math.h>
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -166,6 +167,113 @@ static void tet_term(const dtx__tet *q, term *t, double sign)
     term_add(t, q->var[1], r, sign);
     term_add(t, q->var[2], r + 3, sign);
     term_add(t, q->var[3], r + 6, sign);
+}
+
+/* What cholmod_triplet_to_sparse(T, T->nnz) makes of T (square, stype
+ * -1, every entry in the lower triangle), on two threads: the entries of
+ * each column, rows sorted, duplicates summed in T's order (the first one's
+ * value, then each later one added), so the same matrix bit for bit.  The
+ * triplets are put in column buckets in their order (two halves counted
+ * apart, the first half's entries first), then each column is summed and
+ * sorted on its own.  NULL when out of memory. */
+static cholmod_sparse *lower_triplet_to_csc(const cholmod_triplet *T, cholmod_common *cc)
+{
+    const int32_t n = (int32_t)T->ncol, *Ti = T->i, *Tj = T->j;
+    const double *Tx = T->x;
+    const int64_t nz = (int64_t)T->nnz, half = nz / 2;
+    int64_t *start = dtx_alloc((size_t)n + 1, 2 * sizeof *start, 1);
+    int32_t *bi = dtx_alloc((size_t)nz + 1, sizeof *bi, 0), *cnt = NULL;
+    double *bx = dtx_alloc((size_t)nz + 1, sizeof *bx, 0);
+    cholmod_sparse *A = NULL;
+    int32_t *Ap, *Ai;
+    double *Ax;
+    int failed = 0;
+
+    if (!start || !bi || !bx)
+        goto done;
+    /* start[2 j + h]: where half h's entries of column j begin. */
+    for (int64_t k = 0; k < nz; k++)
+        start[2 * (size_t)Tj[k] + (k >= half) + 1]++;
+    for (size_t q = 1; q < 2 * (size_t)n + 2; q++)
+        start[q] += start[q - 1];
+#pragma omp parallel for schedule(static)
+    for (int h = 0; h < 2; h++)
+        for (int64_t k = h ? half : 0; k < (h ? nz : half); k++) {
+            int64_t p = start[2 * (size_t)Tj[k] + h]++;
+            bi[p] = Ti[k];
+            bx[p] = Tx[k];
+        }
+    /* Now start[2 j + 1] is the end of column j (and start[2 j - 1] its
+     * beginning).  Sum duplicates and sort each column where it lies. */
+    cnt = dtx_alloc((size_t)n + 1, sizeof *cnt, 1);
+    if (!cnt)
+        goto done;
+#pragma omp parallel
+    {
+        int32_t *slot = dtx_alloc((size_t)n, sizeof *slot, 0);
+        if (!slot) {
+#pragma omp atomic write
+            failed = 1;
+        } else {
+            for (int32_t i = 0; i < n; i++)
+                slot[i] = -1;
+#pragma omp for schedule(dynamic, 1024)
+            for (int32_t j = 0; j < n; j++) {
+                const int64_t p0 = j ? start[2 * (size_t)j - 1] : 0, p1 = start[2 * (size_t)j + 1];
+                int64_t w = p0;
+                for (int64_t p = p0; p < p1; p++) {
+                    const int32_t i = bi[p];
+                    if (slot[i] >= 0) {
+                        bx[p0 + slot[i]] += bx[p];
+                    } else {
+                        slot[i] = (int32_t)(w - p0);
+                        bi[w] = i;
+                        bx[w] = bx[p];
+                        w++;
+                    }
+                }
+                for (int64_t p = p0; p < w; p++)
+                    slot[bi[p]] = -1;
+                /* Insertion sort by row: columns hold a few dozen entries. */
+                for (int64_t p = p0 + 1; p < w; p++) {
+                    const int32_t i = bi[p];
+                    const double x = bx[p];
+                    int64_t q = p;
+                    for (; q > p0 && bi[q - 1] > i; q--) {
+                        bi[q] = bi[q - 1];
+                        bx[q] = bx[q - 1];
+                    }
+                    bi[q] = i;
+                    bx[q] = x;
+                }
+                cnt[j + 1] = (int32_t)(w - p0);
+            }
+            free(slot);
+        }
+    }
+    if (failed)
+        goto done;
+    for (int32_t j = 0; j < n; j++)
+        cnt[j + 1] += cnt[j];
+    A = cholmod_allocate_sparse((size_t)n, (size_t)n, (size_t)cnt[n], 1, 1, -1, CHOLMOD_REAL, cc);
+    if (!A)
+        goto done;
+    Ap = A->p;
+    Ai = A->i;
+    Ax = A->x;
+    memcpy(Ap, cnt, ((size_t)n + 1) * sizeof *Ap);
+#pragma omp parallel for schedule(static)
+    for (int32_t j = 0; j < n; j++) {
+        const int64_t p0 = j ? start[2 * (size_t)j - 1] : 0;
+        memcpy(Ai + Ap[j], bi + p0, (size_t)(Ap[j + 1] - Ap[j]) * sizeof *Ai);
+        memcpy(Ax + Ap[j], bx + p0, (size_t)(Ap[j + 1] - Ap[j]) * sizeof *Ax);
+    }
+done:
+    free(start);
+    free(bi);
+    free(bx);
+    free(cnt);
+    return A;
 }
 
 /* ------------------------------------------------------------------ */
@@ -325,44 +433,47 @@ static void assemble_tets(assembler *as, const dtx__tet *tets, int64_t ntetpairs
     }
 }
 
-/* dtx__deform_mesh, and when closest_out (nv) is not NULL, each vertex's
- * last closest valid primitive of tbvh (-1: none in any phase). */
-static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
-                              const int32_t *fixv, const double *fixpos, int32_t nfix,
-                              const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
-                              const double *tnormals, const dtx_corr_params *prm, double *X,
-                              unsigned char *valid_out, int32_t *closest_out, int *solves,
-                              int *factorizations, dtx_error *err)
+/* What the phases share that does not depend on E_R: the closest-point
+ * queries' order, the weights, the unknowns, the rest inverses, and E_S
+ * and E_I assembled as triplets with their right-hand side. */
+typedef struct {
+    int32_t *qorder, *freeidx, *adj;
+    double *fixed, *Vinv, *wtri, *wvert, *rhs;
+    int64_t nadj;
+    int32_t nfree;
+    cholmod_triplet *T;
+} base_terms;
+
+static void base_terms_free(base_terms *b, cholmod_common *cc)
+{
+    cholmod_free_triplet(&b->T, cc);
+    free(b->qorder);
+    free(b->freeidx);
+    free(b->adj);
+    free(b->fixed);
+    free(b->Vinv);
+    free(b->wtri);
+    free(b->wvert);
+    free(b->rhs);
+    memset(b, 0, sizeof *b);
+}
+
+/* Fills b (zeroed by the caller; freed by the caller with base_terms_free
+ * whatever the outcome).  T has room for extra more entries. */
+static dtx_status base_terms_build(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                                   const int32_t *fixv, const double *fixpos, int32_t nfix,
+                                   const dtx_corr_params *prm, base_terms *b, cholmod_common *cc,
+                                   dtx_error *err)
 {
     const int32_t nvar = nv + nf;
-    const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
-    dtx_status st = DTX_OK;
-    cholmod_common cc;
-    cholmod_triplet *T = NULL;
-    cholmod_sparse *K = NULL;
-    cholmod_factor *L = NULL;
-    cholmod_dense *B = NULL, *Xs = NULL;
-    int32_t *freeidx = NULL, *adj = NULL, *diagpos = NULL, *hit = NULL, *qorder = NULL;
-    double *fixed = NULL, *Vinv = NULL, *rhs_base = NULL, *kx_base = NULL, *vn = NULL,
-           *cp = NULL, *wtri = NULL, *wvert = NULL;
-    unsigned char *valid = NULL, *valid_prev = NULL;
-    double wc_prev = -1.0;
-    int64_t nadj;
-    int32_t nfree = 0;
-    double eps_area;
-    char system[64];
+    int32_t *freeidx, nfree = 0;
+    double *fixed, *Vinv, *wtri = NULL, eps_area;
 
-    dtx__chol_start(&cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
-    freeidx = dtx_alloc((size_t)nvar, sizeof *freeidx, 0);
-    fixed = dtx_alloc((size_t)nvar, 3 * sizeof *fixed, 1);
-    Vinv = dtx_alloc((size_t)nf, 9 * sizeof *Vinv, 0);
-    vn = dtx_alloc((size_t)nv, 3 * sizeof *vn, 0);
-    cp = dtx_alloc((size_t)nv, 3 * sizeof *cp, 0);
-    valid = dtx_alloc((size_t)nv, 1, 1);
-    valid_prev = dtx_alloc((size_t)nv, 1, 1);
-    hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
-    qorder = dtx_alloc((size_t)nv, sizeof *qorder, 0);
-    if (!freeidx || !fixed || !Vinv || !vn || !cp || !valid || !valid_prev || !hit || !qorder)
+    b->freeidx = freeidx = dtx_alloc((size_t)nvar, sizeof *freeidx, 0);
+    b->fixed = fixed = dtx_alloc((size_t)nvar, 3 * sizeof *fixed, 1);
+    b->Vinv = Vinv = dtx_alloc((size_t)nf, 9 * sizeof *Vinv, 0);
+    b->qorder = dtx_alloc((size_t)nv, sizeof *b->qorder, 0);
+    if (!freeidx || !fixed || !Vinv || !b->qorder)
         goto nomem;
     /* The closest-point queries go in the leaf order of a tree over the
      * rest source: nearby vertices one after the other, so consecutive
@@ -373,18 +484,16 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         dtx_bvh *sb = dtx_bvh_build(S0, NULL, nv);
         if (!sb)
             goto nomem;
-        memcpy(qorder, dtx_bvh_leaf_order(sb), (size_t)nv * sizeof *qorder);
+        memcpy(b->qorder, dtx_bvh_leaf_order(sb), (size_t)nv * sizeof *b->qorder);
         dtx_bvh_free(&sb);
     }
     if (prm->weights == DTX_CORR_WEIGHTS_AREA) {
-        wtri = dtx_alloc((size_t)nf, sizeof *wtri, 0);
-        wvert = dtx_alloc((size_t)nv, sizeof *wvert, 0);
-        if (!wtri || !wvert)
+        b->wtri = wtri = dtx_alloc((size_t)nf, sizeof *wtri, 0);
+        b->wvert = dtx_alloc((size_t)nv, sizeof *b->wvert, 0);
+        if (!wtri || !b->wvert)
             goto nomem;
-        area_weights(S0, F, nv, nf, wtri, wvert);
+        area_weights(S0, F, nv, nf, wtri, b->wvert);
     }
-    for (int32_t v = 0; v < nv; v++)
-        hit[v] = -1;
 
     /* Unknowns: markers are fixed at their target positions, and vertices
      * in no triangle (no term reaches them) stay where they are. */
@@ -417,32 +526,32 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
     for (int32_t v = 0; v < nvar; v++)
         if (freeidx[v] == 0)
             freeidx[v] = nfree++;
+    b->nfree = nfree;
 
     dtx_frame_inverses(S0, F, nf, eps_area, Vinv);
-    nadj = face_adjacency(F, nf, &adj);
-    if (nadj < 0)
+    b->nadj = face_adjacency(F, nf, &b->adj);
+    if (b->nadj < 0)
         goto nomem;
 
     /* Base matrix (E_S + E_I) and its right-hand side. */
     {
-        size_t maxnz = (size_t)nadj * 36 + (size_t)nf * 10 + (size_t)nfree +
-                       (size_t)ntetpairs * 3 * 36;
+        size_t maxnz = (size_t)b->nadj * 36 + (size_t)nf * 10 + (size_t)nfree;
         assembler as;
-        T = cholmod_allocate_triplet((size_t)nfree, (size_t)nfree, maxnz, -1, CHOLMOD_REAL, &cc);
-        rhs_base = dtx_alloc((size_t)nfree, 3 * sizeof *rhs_base, 1);
-        if (!T || !rhs_base)
+        b->T = cholmod_allocate_triplet((size_t)nfree, (size_t)nfree, maxnz, -1, CHOLMOD_REAL, cc);
+        b->rhs = dtx_alloc((size_t)nfree, 3 * sizeof *b->rhs, 1);
+        if (!b->T || !b->rhs)
             goto nomem;
         as.nvar = nvar;
         as.nfree = nfree;
         as.freeidx = freeidx;
         as.fixed = fixed;
-        as.T = T;
-        as.rhs = rhs_base;
-        for (int64_t p = 0; p < nadj; p++) {
+        as.T = b->T;
+        as.rhs = b->rhs;
+        for (int64_t p = 0; p < b->nadj; p++) {
             term t;
             t.n = 0;
-            triangle_term(F, nv, adj[2 * p], Vinv, &t, 1.0);
-            triangle_term(F, nv, adj[2 * p + 1], Vinv, &t, -1.0);
+            triangle_term(F, nv, b->adj[2 * p], Vinv, &t, 1.0);
+            triangle_term(F, nv, b->adj[2 * p + 1], Vinv, &t, -1.0);
             assemble_term(&as, &t, NULL, prm->w_smooth);
         }
         for (int32_t f = 0; f < nf; f++) {
@@ -452,6 +561,92 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
             triangle_term(F, nv, f, Vinv, &t, 1.0);
             assemble_term(&as, &t, I3, prm->w_identity * (wtri ? wtri[f] : 1.0));
         }
+    }
+    return DTX_OK;
+nomem:
+    return dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
+}
+
+/* dtx__deform_mesh, and when closest_out (nv) is not NULL, each vertex's
+ * last closest valid primitive of tbvh (-1: none in any phase). */
+static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
+                              const int32_t *fixv, const double *fixpos, int32_t nfix,
+                              dtx__tet_maker make_tets, void *tets_ctx, const dtx_bvh *tbvh,
+                              const double *tnormals, const dtx_corr_params *prm, double *X,
+                              unsigned char *valid_out, int32_t *closest_out, int *solves,
+                              int *factorizations, dtx_error *err)
+{
+    const double cosmax = cos(prm->max_angle_deg * DTX_PI / 180.0);
+    dtx_status st = DTX_OK, st_tets = DTX_OK;
+    cholmod_common cc;
+    cholmod_triplet *T = NULL;
+    cholmod_sparse *K = NULL;
+    cholmod_factor *L = NULL;
+    cholmod_dense *B = NULL, *Xs = NULL;
+    dtx__chol_refactor R = {NULL, NULL};
+    base_terms base;
+    const dtx__tet *tets = NULL;
+    int64_t ntetpairs = 0;
+    int32_t *freeidx, *diagpos = NULL, *hit = NULL, *qorder;
+    double *fixed, *rhs_base, *kx_base = NULL, *vn = NULL, *cp = NULL, *wvert;
+    unsigned char *valid = NULL, *valid_prev = NULL;
+    double wc_prev = -1.0;
+    int32_t nfree;
+    char system[64];
+    dtx_error err_tets;
+
+    memset(&base, 0, sizeof base);
+    memset(&err_tets, 0, sizeof err_tets);
+    dtx__chol_start(&cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
+    /* E_R's terms are made on a second thread while E_S and E_I are
+     * assembled: they only join the matrix after them, in the same order
+     * whoever made them. */
+#pragma omp parallel sections if (make_tets != NULL)
+    {
+#pragma omp section
+        if (make_tets)
+            st_tets = make_tets(tets_ctx, &tets, &ntetpairs, &err_tets);
+#pragma omp section
+        st = base_terms_build(F, nv, nf, S0, fixv, fixpos, nfix, prm, &base, &cc, err);
+    }
+    if (st == DTX_OK && st_tets != DTX_OK) {
+        if (err)
+            *err = err_tets;
+        st = st_tets;
+    }
+    if (st != DTX_OK)
+        goto fail;
+    freeidx = base.freeidx;
+    fixed = base.fixed;
+    qorder = base.qorder;
+    wvert = base.wvert;
+    rhs_base = base.rhs;
+    nfree = base.nfree;
+    T = base.T;
+    base.T = NULL;
+
+    vn = dtx_alloc((size_t)nv, 3 * sizeof *vn, 0);
+    cp = dtx_alloc((size_t)nv, 3 * sizeof *cp, 0);
+    valid = dtx_alloc((size_t)nv, 1, 1);
+    valid_prev = dtx_alloc((size_t)nv, 1, 1);
+    hit = dtx_alloc((size_t)nv, sizeof *hit, 0);
+    if (!vn || !cp || !valid || !valid_prev || !hit)
+        goto nomem;
+    for (int32_t v = 0; v < nv; v++)
+        hit[v] = -1;
+
+    /* E_R, then the closest-point diagonal, after E_S and E_I. */
+    {
+        assembler as;
+        if (!cholmod_reallocate_triplet(T->nnz + (size_t)ntetpairs * 3 * 36 + (size_t)nfree, T,
+                                        &cc))
+            goto nomem;
+        as.nvar = nv + nf;
+        as.nfree = nfree;
+        as.freeidx = freeidx;
+        as.fixed = fixed;
+        as.T = T;
+        as.rhs = rhs_base;
         assemble_tets(&as, tets, ntetpairs, prm);
         /* Explicit zero diagonal entries for vertex unknowns, so the pattern
          * already holds the closest-point term's diagonal. */
@@ -462,7 +657,7 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
                 ((int32_t *)T->j)[k] = freeidx[v];
                 ((double *)T->x)[k] = 0.0;
             }
-        K = cholmod_triplet_to_sparse(T, T->nnz, &cc);
+        K = lower_triplet_to_csc(T, &cc);
         cholmod_free_triplet(&T, &cc);
         if (!K)
             goto nomem;
@@ -485,6 +680,23 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         }
     }
     st = dtx__chol_analyze(K, "the correspondence system", &L, &cc, err);
+    if (st != DTX_OK)
+        goto fail;
+    /* A supernodal factor's values are allocated here as its first
+     * factorisation would allocate them (which then reuses them: it clears
+     * each supernode before filling it, so the bits are the same), and
+     * paged in by a second thread while this one prepares the
+     * refactorisations, instead of by the first factorisation. */
+    if (L->is_super && !cholmod_change_factor(CHOLMOD_REAL, 1, 1, 1, 1, L, &cc))
+        goto nomem;
+#pragma omp parallel sections
+    {
+#pragma omp section
+        st = dtx__chol_refactor_start(K, L, &R, &cc, err);
+#pragma omp section
+        if (L->is_super)
+            memset(L->x, 0, L->xsize * sizeof(double));
+    }
     if (st != DTX_OK)
         goto fail;
     B = cholmod_zeros((size_t)nfree, 3, CHOLMOD_REAL, &cc);
@@ -535,8 +747,9 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
          * (the later phases at the final weight once the fit has settled). */
         if (phase == 0 || wc != wc_prev || memcmp(valid, valid_prev, (size_t)nv) != 0) {
             snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
-            st = dtx__chol_factorize(K, DTX__CHOL_NO_TEAMS, system,
-                                     "; are the markers spread over the whole mesh?", L, &cc, err);
+            st = dtx__chol_factorize_again(K, &R, DTX__CHOL_NO_TEAMS, system,
+                                           "; are the markers spread over the whole mesh?", L,
+                                           &cc, err);
             if (st != DTX_OK)
                 goto fail;
             (*factorizations)++;
@@ -565,23 +778,17 @@ nomem:
 fail:
     cholmod_free_dense(&Xs, &cc);
     cholmod_free_dense(&B, &cc);
+    dtx__chol_refactor_free(&R, &cc);
     cholmod_free_factor(&L, &cc);
     cholmod_free_sparse(&K, &cc);
     cholmod_free_triplet(&T, &cc);
+    base_terms_free(&base, &cc);
     cholmod_finish(&cc);
-    free(freeidx);
-    free(fixed);
-    free(Vinv);
     free(vn);
     free(cp);
     free(valid);
     free(valid_prev);
     free(hit);
-    free(qorder);
-    free(wtri);
-    free(wvert);
-    free(adj);
-    free(rhs_base);
     free(kx_base);
     free(diagpos);
     return st;
@@ -589,13 +796,13 @@ fail:
 
 dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
-                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                            dtx__tet_maker make_tets, void *tets_ctx, const dtx_bvh *tbvh,
                             const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, int *factorizations,
-                            dtx_error *err)
+                            unsigned char *valid_out, int32_t *closest_out, int *solves,
+                            int *factorizations, dtx_error *err)
 {
-    return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, tets, ntetpairs, tbvh, tnormals, prm, X,
-                       valid_out, NULL, solves, factorizations, err);
+    return deform_mesh(F, nv, nf, S0, fixv, fixpos, nfix, make_tets, tets_ctx, tbvh, tnormals, prm,
+                       X, valid_out, closest_out, solves, factorizations, err);
 }
 
 /* ------------------------------------------------------------------ */
@@ -937,7 +1144,7 @@ dtx_status dtx_sp04_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
             fixv[m] = markers->src[m];
             memcpy(fixpos + 3 * (size_t)m, Tn + 3 * (size_t)markers->tgt[m], 3 * sizeof *fixpos);
         }
-        st = deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, 0,
+        st = deform_mesh(src->F, src->nv, src->nf, S0, fixv, fixpos, markers->n, NULL, NULL,
                          vbvh ? vbvh : tbvh, vbvh ? vnormals : tnormals, prm, X, NULL, closest,
                          &out->solves, &out->factorizations, err);
         free(fixv);

@@ -16,6 +16,14 @@ typedef struct {
     double inv[9];
 } dtx__tet;
 
+/* Makes E_R's tetrahedron pairs for dtx__deform_mesh: *tets (2 per pair,
+ * owned by the maker's caller, alive until dtx__deform_mesh returns) and
+ * *ntetpairs.  Called on a thread of its own while dtx__deform_mesh sets
+ * up E_S and E_I, so it must not touch what those read (parallel regions
+ * inside it get one thread there). */
+typedef dtx_status (*dtx__tet_maker)(void *ctx, const dtx__tet **tets, int64_t *ntetpairs,
+                                     dtx_error *err);
+
 /* The argument checks both correspondences start with: n_closest in
  * [0, 16] (DTX_EINVAL) and dtx_markers_validate against the two meshes. */
 dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
@@ -59,18 +67,21 @@ int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const do
  * tbvh (triangles, with face normals tnormals): minimises w_S E_S + w_I E_I
  * + w_C E_C over the vertices and one fourth vertex per triangle, the nfix
  * vertices fixv held at fixpos (nfix x 3), plus for each of the ntetpairs
- * pairs (tets[2k], tets[2k+1]) the terms w_S |Ta - Tb|^2 + w_I |Ta - I|^2 +
- * w_I |Tb - I|^2 (Zhou et al.'s E_R; NULL, 0 for none).  Phases as in the
- * file comment of correspondence.c.  X (nv x 3, in: the start, normally
+ * pairs (tets[2k], tets[2k+1]) that make_tets(tets_ctx, ...) makes the
+ * terms w_S |Ta - Tb|^2 + w_I |Ta - I|^2 + w_I |Tb - I|^2 (Zhou et al.'s
+ * E_R; make_tets NULL for none; its failure is returned as it is).  Phases
+ * as in the file comment of correspondence.c.  X (nv x 3, in: the start, normally
  * S0; out: the result); valid_out (nv, may be NULL): 1 for the vertices
- * that had a valid closest point in the last phase; *solves counts the
+ * that had a valid closest point in the last phase; closest_out (nv, may be
+ * NULL): each vertex's last closest valid primitive of tbvh (-1: none in
+ * any phase), a search hint for dtx__fit_rms_from; *solves counts the
  * solves and *factorizations the numeric factorisations (a phase whose
  * matrix equals the previous phase's reuses its factor). */
 dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
-                            const dtx__tet *tets, int64_t ntetpairs, const dtx_bvh *tbvh,
+                            dtx__tet_maker make_tets, void *tets_ctx, const dtx_bvh *tbvh,
                             const double *tnormals, const dtx_corr_params *prm, double *X,
-                            unsigned char *valid_out, int *solves, int *factorizations,
-                            dtx_error *err);
+                            unsigned char *valid_out, int32_t *closest_out, int *solves,
+                            int *factorizations, dtx_error *err);
 
 #endif /* DTX_CORRESPONDENCE_INTERNAL_H */

@@ -180,6 +180,30 @@ static dtx_status build_tets(const dtx_mesh *tgt, const double *V, const dtx_pro
     return DTX_OK;
 }
 
+/* E_R's maker (dtx__tet_maker): the target's proximity pairs (in the
+ * normalised frame Tn, where the thresholds are the same relative to the
+ * mesh), then their tetrahedron pairs, both kept here. */
+typedef struct {
+    const dtx_mesh *tgt;
+    const double *Tn;
+    double eps_factor;
+    dtx_proximity prox;
+    dtx__tet *tets;
+} tets_ctx;
+
+static dtx_status make_tets(void *ctx, const dtx__tet **tets, int64_t *ntetpairs, dtx_error *err)
+{
+    tets_ctx *c = ctx;
+    dtx_mesh tn = *c->tgt;
+    dtx_status st;
+    tn.V = (double *)c->Tn;
+    st = dtx_proximity_build(&tn, c->eps_factor, &c->prox, err);
+    if (st == DTX_OK)
+        st = build_tets(c->tgt, c->Tn, &c->prox, &c->tets, ntetpairs, err);
+    *tets = c->tets;
+    return st;
+}
+
 typedef struct {
     const double *normals;
     const double *n;
@@ -193,9 +217,12 @@ static int nfilter(const void *ctx, int32_t prim)
 }
 
 /* Pairs every target triangle that touches a marker or a vertex with a
- * valid closest point with the source triangle of nearest barycenter. */
+ * valid closest point with the source triangle of nearest barycenter.
+ * vhint (tgt->nv): a source triangle near each deformed target vertex (its
+ * last closest point) or -1, only where the searches start: the pairs are
+ * the same with any hints. */
 static dtx_status pair_mc(const dtx_mesh *src, const double *S0, const dtx_mesh *tgt,
-                          const double *X, const unsigned char *anchored,
+                          const double *X, const unsigned char *anchored, const int32_t *vhint,
                           const dtx_corr_params *prm, dtx_corr *out, dtx_error *err)
 {
     const int32_t nfs = src->nf, nft = tgt->nf;
@@ -237,7 +264,7 @@ static dtx_status pair_mc(const dtx_mesh *src, const double *S0, const dtx_mesh 
         ctx.normals = ns;
         ctx.n = nt + 3 * (size_t)f;
         ctx.cosmax = cosmax;
-        by[f] = dtx_bvh_closest(bs, c, INFINITY, nfilter, &ctx, NULL, NULL);
+        by[f] = dtx_bvh_closest_from(bs, c, INFINITY, nfilter, &ctx, vhint[tv[0]], NULL, NULL);
         if (by[f] < 0)
             by[f] = dtx_bvh_closest(bs, c, INFINITY, NULL, NULL, NULL, NULL);
     }
@@ -277,15 +304,13 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
     dtx_status st;
     double *S0 = NULL, *Tn = NULL, *X = NULL, *snormals = NULL, *fixpos = NULL;
     double center[3] = {0, 0, 0}, diag = 1.0;
-    int32_t *fixv = NULL;
+    int32_t *fixv = NULL, *closest = NULL;
     unsigned char *anchored = NULL;
-    dtx__tet *tets = NULL;
-    int64_t ntp = 0;
     dtx_bvh *sbvh = NULL;
-    dtx_proximity prox;
+    tets_ctx tc;
 
     memset(out, 0, sizeof *out);
-    memset(&prox, 0, sizeof prox);
+    memset(&tc, 0, sizeof tc);
     st = dtx__corr_check(src, tgt, markers, prm, err);
     if (st != DTX_OK)
         return st;
@@ -297,26 +322,19 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
     anchored = dtx_alloc((size_t)tgt->nv, 1, 1);
     fixv = dtx_alloc((size_t)markers->n, sizeof *fixv, 0);
     fixpos = dtx_alloc((size_t)markers->n, 3 * sizeof *fixpos, 0);
-    if (!S0 || !Tn || !X || !snormals || !anchored || !fixv || !fixpos)
+    closest = dtx_alloc((size_t)tgt->nv, sizeof *closest, 0);
+    if (!S0 || !Tn || !X || !snormals || !anchored || !fixv || !fixpos || !closest)
         goto nomem;
     st = dtx__corr_normalise(src, tgt, markers, prm->align, S0, Tn, center, &diag, err);
     if (st != DTX_OK)
         goto fail;
 
-    /* E_R from the target's proximity pairs (in the normalised frame, where
-     * the thresholds are the same relative to the mesh). */
-    {
-        dtx_mesh tn = *tgt;
-        tn.V = Tn;
-        st = dtx_proximity_build(&tn, eps_factor, &prox, err);
-        if (st != DTX_OK)
-            goto fail;
-        st = build_tets(tgt, Tn, &prox, &tets, &ntp, err);
-        if (st != DTX_OK)
-            goto fail;
-    }
-
-    /* Deform the target into the source, markers held on the source. */
+    /* Deform the target into the source, markers held on the source, with
+     * E_R from the target's proximity pairs (made while the deformation
+     * sets up its other terms). */
+    tc.tgt = tgt;
+    tc.Tn = Tn;
+    tc.eps_factor = eps_factor;
     for (int32_t m = 0; m < markers->n; m++) {
         fixv[m] = markers->tgt[m];
         memcpy(fixpos + 3 * (size_t)m, S0 + 3 * (size_t)markers->src[m], 3 * sizeof *fixpos);
@@ -332,21 +350,22 @@ dtx_status dtx_mc_correspond(const dtx_mesh *src, const dtx_mesh *tgt,
          * too, which is not done (nor measured) yet. */
         dtx_corr_params p = *prm;
         p.weights = DTX_CORR_WEIGHTS_ELEMENT;
-        st = dtx__deform_mesh(tgt->F, tgt->nv, tgt->nf, Tn, fixv, fixpos, markers->n, tets, ntp,
-                              sbvh, snormals, &p, X, anchored, &out->solves,
+        st = dtx__deform_mesh(tgt->F, tgt->nv, tgt->nf, Tn, fixv, fixpos, markers->n, make_tets,
+                              &tc, sbvh, snormals, &p, X, anchored, closest, &out->solves,
                               &out->factorizations, err);
     }
     if (st != DTX_OK)
         goto fail;
     for (int32_t m = 0; m < markers->n; m++)
         anchored[markers->tgt[m]] = 1;
-    st = pair_mc(src, S0, tgt, X, anchored, prm, out, err);
+    st = pair_mc(src, S0, tgt, X, anchored, closest, prm, out, err);
     if (st != DTX_OK)
         goto fail;
 
     /* Fit: RMS distance of the deformed target's vertices (those in faces)
-     * to the source surface. */
-    out->fit_rms = dtx__fit_rms(sbvh, X, tgt->nv, prox.comp);
+     * to the source surface, each search started from the vertex's last
+     * closest point (the same figure, found sooner). */
+    out->fit_rms = dtx__fit_rms_from(sbvh, X, tgt->nv, tc.prox.comp, closest);
     if (out->fit_rms < 0.0)
         goto nomem;
     for (int32_t i = 0; i < tgt->nv; i++)
@@ -362,7 +381,7 @@ nomem:
 fail:
     if (st != DTX_OK)
         dtx_corr_free(out);
-    dtx_proximity_free(&prox);
+    dtx_proximity_free(&tc.prox);
     dtx_bvh_free(&sbvh);
     free(S0);
     free(Tn);
@@ -371,6 +390,7 @@ fail:
     free(anchored);
     free(fixv);
     free(fixpos);
-    free(tets);
+    free(closest);
+    free(tc.tets);
     return st;
 }
