@@ -540,8 +540,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             int32_t b, old;
             if (!changed && sweep > 0 && j > last_j)
                 break;
-            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p,
-                                  mine, errs, res, &reduce_failed, &b, err)) != DTX_OK)
+            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, mine,
+                                  errs, res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;
