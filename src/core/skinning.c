@@ -1018,12 +1018,6 @@ struct dtx_skin_eval {
     int64_t *dstart; /* nv + 1 */
     int32_t *dg;
     double *dw;
-    /* The same entries by cluster: cluster g's are gstart[g] ..
-     * gstart[g + 1] - 1, in increasing vertex order, vertex gj[t],
-     * coefficients gw[3 t .. 3 t + 2]. */
-    int64_t *gstart; /* ncl + 1 */
-    int32_t *gj;
-    double *gw;
 };
 
 struct dtx_skin_eval_work {
@@ -1049,9 +1043,6 @@ void dtx_skin_eval_free(dtx_skin_eval **ev)
     free((*ev)->dstart);
     free((*ev)->dg);
     free((*ev)->dw);
-    free((*ev)->gstart);
-    free((*ev)->gj);
-    free((*ev)->gw);
     free(*ev);
     *ev = NULL;
 }
@@ -1164,34 +1155,6 @@ dtx_status dtx_skin_eval_create(const dtx_skin_mesh *mesh, const int32_t *labels
             }
         }
         ev->dstart[nv] = o;
-    }
-    /* ---- the same by cluster (a stable counting sort: each cluster's
-     * entries keep the vertex order) */
-    {
-        const int64_t nent = ev->dstart[nv];
-        ev->gstart = dtx_alloc((size_t)nclusters + 1, sizeof *ev->gstart, 1);
-        ev->gj = dtx_alloc((size_t)(nent > 0 ? nent : 1), sizeof *ev->gj, 0);
-        ev->gw = dtx_alloc((size_t)(nent > 0 ? nent : 1), 3 * sizeof *ev->gw, 0);
-        if (!ev->gstart || !ev->gj || !ev->gw) {
-            st = dtx_seterr(err, DTX_ENOMEM, "skinning errors: out of memory (%d vertices)",
-                            (int)nv);
-            goto done;
-        }
-        for (int64_t x = 0; x < nent; x++)
-            ev->gstart[ev->dg[x] + 1]++;
-        for (int32_t g = 0; g < nclusters; g++)
-            ev->gstart[g + 1] += ev->gstart[g];
-        for (int32_t j = 0; j < nv; j++)
-            for (int64_t x = ev->dstart[j]; x < ev->dstart[j + 1]; x++) {
-                /* gstart[g] runs ahead as cluster g fills; put back below */
-                int64_t t = ev->gstart[ev->dg[x]]++;
-                ev->gj[t] = j;
-                for (int a = 0; a < 3; a++)
-                    ev->gw[3 * t + a] = ev->dw[3 * x + a];
-            }
-        for (int32_t g = nclusters; g > 0; g--)
-            ev->gstart[g] = ev->gstart[g - 1];
-        ev->gstart[0] = 0;
     }
 
 done:
@@ -1345,24 +1308,16 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
                           "skinning errors: the normal matrix is not positive definite (the "
                           "weights times [p 1] are linearly dependent)");
 
-    /* ---- P_g = D_g M (3 x n4 per cluster): cluster by cluster, four
-     * columns at a time summed in registers over the cluster's entries in
-     * vertex order, which is the order a pass over the vertices adding
-     * into P would take, so the same bits. */
-    for (int32_t g = 0; g < ncl; g++) {
-        double *pg = w->Pg + (size_t)g * 3 * n4;
-        const int64_t t0 = ev->gstart[g], t1 = ev->gstart[g + 1];
-        for (int32_t r = 0; r < n4; r += 4) {
-            double s[3][4] = {{0.0}};
-            for (int64_t t = t0; t < t1; t++) {
-                const double *mj = w->M + (size_t)ev->gj[t] * n4 + r, *d = ev->gw + 3 * t;
-                for (int a = 0; a < 3; a++)
-                    for (int q = 0; q < 4; q++)
-                        s[a][q] += d[a] * mj[q];
-            }
+    /* ---- P_g = D_g M (3 x n4 per cluster) */
+    memset(w->Pg, 0, sizeof(double) * (size_t)ncl * 3 * (size_t)n4);
+    for (int32_t j = 0; j < nv; j++) {
+        const double *mj = w->M + (size_t)j * n4;
+        for (int64_t x = ev->dstart[j]; x < ev->dstart[j + 1]; x++) {
+            double *pg = w->Pg + (size_t)ev->dg[x] * 3 * n4;
+            const double *d = ev->dw + 3 * x;
             for (int a = 0; a < 3; a++)
-                for (int q = 0; q < 4; q++)
-                    pg[(size_t)a * n4 + r + q] = s[a][q];
+                for (int32_t r = 0; r < n4; r++)
+                    pg[(size_t)a * n4 + r] += d[a] * mj[r];
         }
     }
 
