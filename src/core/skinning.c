@@ -1277,30 +1277,20 @@ dtx_status dtx_skin_eval_error(const dtx_skin_eval *ev, int32_t m, const double 
      * are column-major n4 x nv; A = M^T B lands row-major as B^T M, whose
      * lower triangle cholesky() reads: the upper triangle of M^T B, as
      * dtx_skin_fit_create computes it. */
-    /* Four columns (one handle's) at a time, summed over the spokes in
-     * registers: each entry sees the same operations in the same order as
-     * a pass over the spokes per column would do. */
     for (int32_t i = 0; i < nv; i++) {
         const double *mi = w->M + (size_t)i * n4;
         double *bi = w->B + (size_t)i * n4, c = 2.0 * ev->lambda, d = 0.0;
-        const int64_t e0 = mesh->spoke_start[i], e1 = mesh->spoke_start[i + 1];
-        for (int64_t e = e0; e < e1; e++)
-            d += mesh->spoke_w[e];
-        for (int32_t r = 0; r < n4; r += 4) {
-            double a0 = 0.0, a1 = 0.0, a2 = 0.0, a3 = 0.0;
-            for (int64_t e = e0; e < e1; e++) {
-                const double *mj = w->M + (size_t)mesh->spoke_j[e] * n4 + r;
-                double we = mesh->spoke_w[e];
-                a0 -= we * mj[0];
-                a1 -= we * mj[1];
-                a2 -= we * mj[2];
-                a3 -= we * mj[3];
-            }
-            bi[r] = mi[r] + c * (d * mi[r] + a0);
-            bi[r + 1] = mi[r + 1] + c * (d * mi[r + 1] + a1);
-            bi[r + 2] = mi[r + 2] + c * (d * mi[r + 2] + a2);
-            bi[r + 3] = mi[r + 3] + c * (d * mi[r + 3] + a3);
+        for (int32_t r = 0; r < n4; r++)
+            bi[r] = 0.0;
+        for (int64_t e = mesh->spoke_start[i]; e < mesh->spoke_start[i + 1]; e++) {
+            const double *mj = w->M + (size_t)mesh->spoke_j[e] * n4;
+            double we = mesh->spoke_w[e];
+            d += we;
+            for (int32_t r = 0; r < n4; r++)
+                bi[r] -= we * mj[r];
         }
+        for (int32_t r = 0; r < n4; r++)
+            bi[r] = mi[r] + c * (d * mi[r] + bi[r]);
     }
     dgemm_("N", "T", &in4, &in4, &inv, &one, w->M, &in4, w->B, &in4, &zero, w->A, &in4);
     if (cholesky(w->A, n4) >= 0)
