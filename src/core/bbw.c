@@ -115,12 +115,15 @@ typedef struct {
     unsigned char *band;      /* nv: a local solve's vertices (with the changed ones first) */
     int32_t *queue;           /* nv: the band's breadth-first search */
     int local;                /* the next solve is local: only the band's free vertices */
+    int first;                /* the next solve is a programme's first (see L0) */
+    cholmod_factor *L0;       /* the first solve's factor, kept for the thread's next handles */
     dtx_error err;
 } thread_ws;
 
 static void ws_free(thread_ws *w)
 {
     if (w->started) {
+        cholmod_free_factor(&w->L0, &w->cc);
         cholmod_free_dense(&w->X, &w->cc);
         cholmod_free_dense(&w->Y, &w->cc);
         cholmod_free_dense(&w->E, &w->cc);
@@ -166,7 +169,12 @@ static int ws_alloc(thread_ws *w, int32_t nv)
 /* Solves for x on the FREE vertices (only those in w->band when w->local)
  * with every other vertex held at its current value, the block ordered by
  * order (nv vertices, the mesh's fill-reducing ordering: mesh_order)
- * restricted to them.  Returns DTX_OK or an error in w->err. */
+ * restricted to them.  A programme's first solve (w->first) has every
+ * vertex but the handles free, whichever handle it is for: the same block
+ * for all the handles of a call, so its factor is kept in w->L0 and the
+ * thread's later programmes only solve with it (the same factor, so the
+ * same bits as factoring it again).  Returns DTX_OK or an error in
+ * w->err. */
 static dtx_status solve_free(const dtx_csr *Q, int32_t nv, const int32_t *order, thread_ws *w)
 {
     int32_t nfree = 0;
@@ -194,6 +202,10 @@ static dtx_status solve_free(const dtx_csr *Q, int32_t nv, const int32_t *order,
         }
         w->b[k] = -s;
     }
+    if (w->first && w->L0) {
+        L = w->L0;
+        goto solve;
+    }
     A = dtx__block(Q, w->idx, w->fvert, nfree, &w->cc);
     if (!A)
         return dtx_seterr(&w->err, DTX_ENOMEM, "bounded biharmonic weights: out of memory for "
@@ -215,6 +227,9 @@ static dtx_status solve_free(const dtx_csr *Q, int32_t nv, const int32_t *order,
                                  "; the mesh may have degenerate triangles", L, &w->cc, &w->err);
     if (st != DTX_OK)
         goto done;
+    if (w->first)
+        w->L0 = L;
+solve:
     memset(&B, 0, sizeof B);
     B.nrow = B.nzmax = B.d = (size_t)nfree;
     B.ncol = 1;
@@ -229,7 +244,8 @@ static dtx_status solve_free(const dtx_csr *Q, int32_t nv, const int32_t *order,
     for (int32_t k = 0; k < nfree; k++)
         w->x[w->fvert[k]] = ((const double *)w->X->x)[k];
 done:
-    cholmod_free_factor(&L, &w->cc);
+    if (L != w->L0)
+        cholmod_free_factor(&L, &w->cc);
     cholmod_free_sparse(&A, &w->cc);
     return st;
 }
@@ -280,9 +296,11 @@ static dtx_status solve_handle(const dtx_csr *Q, int32_t nv, const int32_t *orde
     *converged = 0;
     *local = 0;
     w->local = 0;
+    w->first = 1;
     while (it < max_iter) {
         int32_t changed = 0;
         st = solve_free(Q, nv, order, w);
+        w->first = 0;
         if (st != DTX_OK)
             return st;
         if (w->local)

@@ -239,27 +239,46 @@ static dtx_status eval_fast(const kp_ctx *c, int32_t m, const double *W, kp_work
     return st;
 }
 
+/* Which of the round's candidates this part evaluates (mine[i] = 1): the
+ * candidates not in the set (inset[i] == 0), numbered 0, 1, ... in index
+ * order, go to the parts in turn, so the parts' counts differ by at most one
+ * whatever the set holds (candidate i on part i % parts left a part with up
+ * to the set's size more, and the other waiting for it at the reduction).
+ * The share depends only on the set, so replacement rounds that share their
+ * Green's functions (c->gcache, per part) keep the same candidates. */
+static void round_share(const unsigned char *inset, int32_t ncand, const dtx_kp_params *p,
+                        unsigned char *mine)
+{
+    int32_t j = 0;
+    for (int32_t i = 0; i < ncand; i++) {
+        mine[i] = !inset[i] && j % p->part_count == p->part_index;
+        j += !inset[i];
+    }
+}
+
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
- * == 0) that this part owns; +INFINITY elsewhere.  replace_j < 0: add the
- * candidate; else replace handle replace_j by it.  Fast mode: c->ev holds
- * the round's clustering. */
+ * == 0) that this part owns (round_share); +INFINITY elsewhere.
+ * replace_j < 0: add the candidate; else replace handle replace_j by it.
+ * Fast mode: c->ev holds the round's clustering.  mine: ncand bytes of
+ * scratch. */
 static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                        int32_t ncand, const unsigned char *inset, int replace_j, kp_work *ws,
-                       int nthreads, const dtx_kp_params *p, double *errs, int64_t *evals,
-                       int64_t *failed)
+                       int nthreads, const dtx_kp_params *p, unsigned char *mine, double *errs,
+                       int64_t *evals, int64_t *failed)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     const int32_t mm = replace_j < 0 ? m + 1 : m;
     int64_t ev = 0, fl = 0;
     for (int32_t i = 0; i < ncand; i++)
         errs[i] = INFINITY;
+    round_share(inset, ncand, p, mine);
 #pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl)
     for (int32_t i = 0; i < ncand; i++) {
         kp_work *w = &ws[omp_get_thread_num()];
         dtx_error e;
         dtx_status st;
         double v = INFINITY;
-        if (inset[i] || i % p->part_count != p->part_index)
+        if (!mine[i])
             continue;
         ev++;
         if (c->exact) {
@@ -346,13 +365,14 @@ static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error
  * none).  Sets *reduce_failed when the reduction over the parts failed. */
 static dtx_status score_round(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                               const unsigned char *inset, int replace_j, int32_t k, kp_work *ws,
-                              int nthreads, const dtx_kp_params *p, double *errs,
-                              dtx_kp_result *res, int *reduce_failed, int32_t *best, dtx_error *err)
+                              int nthreads, const dtx_kp_params *p, unsigned char *mine,
+                              double *errs, dtx_kp_result *res, int *reduce_failed, int32_t *best,
+                              dtx_error *err)
 {
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, errs,
+    round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, mine, errs,
                &res->evaluations, &res->failed);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
@@ -369,7 +389,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     dtx_bbw_incr *incr = NULL;
     kp_work *ws = NULL;
     double *radius = NULL, *errs = NULL;
-    unsigned char *inset = NULL;
+    unsigned char *inset = NULL, *mine = NULL;
     int32_t *cand = NULL, nfaced = 0, tcap = 0, mmax;
     int nthreads;
     dtx_status st = DTX_OK;
@@ -423,9 +443,10 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     radius = dtx_alloc((size_t)res->ncand, sizeof *radius, 0);
     errs = dtx_alloc((size_t)res->ncand, sizeof *errs, 0);
     inset = dtx_alloc((size_t)res->ncand, 1, 1);
+    mine = dtx_alloc((size_t)res->ncand, 1, 1);
     res->keys = dtx_alloc((size_t)mmax, sizeof *res->keys, 0);
     ws = dtx_alloc((size_t)nthreads, sizeof *ws, 1);
-    if (!cand || !radius || !errs || !inset || !res->keys || !ws) {
+    if (!cand || !radius || !errs || !inset || !mine || !res->keys || !ws) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         goto fail;
     }
@@ -491,8 +512,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     /* Stage 1: add while the error is above eps and a candidate lowers it. */
     while (res->error > p->eps && res->count < p->max_keys && res->count < res->ncand) {
         int32_t b;
-        if ((st = score_round(&c, incr, cand, inset, -1, res->count + 1, ws, nthreads, p, errs, res,
-                              &reduce_failed, &b, err)) != DTX_OK)
+        if ((st = score_round(&c, incr, cand, inset, -1, res->count + 1, ws, nthreads, p, mine,
+                              errs, res, &reduce_failed, &b, err)) != DTX_OK)
             goto fail;
         if (b < 0 || !(errs[b] < res->error))
             break;
@@ -519,8 +540,8 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             int32_t b, old;
             if (!changed && sweep > 0 && j > last_j)
                 break;
-            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, errs,
-                                  res, &reduce_failed, &b, err)) != DTX_OK)
+            if ((st = score_round(&c, incr, cand, inset, (int)j, res->count, ws, nthreads, p, mine,
+                                  errs, res, &reduce_failed, &b, err)) != DTX_OK)
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;
@@ -585,6 +606,7 @@ done:
     free(radius);
     free(errs);
     free(inset);
+    free(mine);
     free(c.feat);
     dtx_skin_eval_free(&c.ev);
     free(c.gcache);

@@ -56,8 +56,9 @@
  * weights and its own clustering (final_error_exact).
  *
  * Parallelism and reproducibility.  Candidates of a round are evaluated in
- * parallel over OpenMP threads; across processes, candidate i of the nc is
- * evaluated by the part i % part_count == part_index, and `reduce` (given
+ * parallel over OpenMP threads; across processes, the round's candidates
+ * not in the set, numbered j = 0, 1, ... in index order, are evaluated by
+ * the part j % part_count == part_index, and `reduce` (given
  * by the caller, e.g. an MPI_Allreduce with MPI_MIN) combines the parts'
  * error arrays (entries not evaluated by a part are +INFINITY).  Every
  * candidate's error is computed by one thread in a fixed way, and the best

@@ -383,6 +383,15 @@ static void test_bbw(void)
         claim_list la = {order_a, 5, 0}, lb = {order_b, 2, 0}, lbad = {order_a, 5, 0};
         static const int32_t bad[] = {5};
         CHECK_OK(dtx_bbw_handles(&cap, h, m, 0, m, NULL, Wk, NULL, &err), &err);
+        /* A thread keeps its first factorisation for its next handles:
+         * each handle alone (a factorisation of its own) gives the same
+         * bits. */
+        for (size_t i = 0; i < (size_t)nv * m; i++)
+            Wc[i] = -7.0;
+        for (int32_t k = 0; k < m; k++)
+            CHECK_OK(dtx_bbw_handles(&cap, h, m, k, k + 1, NULL, Wc + (size_t)k * nv, NULL, &err),
+                     &err);
+        CHECK(memcmp(Wk, Wc, (size_t)nv * m * sizeof *Wk) == 0);
         CHECK_OK(dtx_bbw_handles_claim(&cap, h, m, claim_next, &la, NULL, Wc, NULL, &err), &err);
         CHECK(memcmp(Wk, Wc, (size_t)nv * m * sizeof *Wk) == 0);
         CHECK_EQ_INT(la.next, 5);

@@ -149,6 +149,12 @@ static void run_all(const char *what, const dtx_mesh *m, int32_t nframes, const 
         CHECK(same(&r1, &rp[0]));
         CHECK(same(&r1, &rp[1]));
         CHECK_INT(rp[0].evaluations + rp[1].evaluations, ==, r1.evaluations);
+        /* The round's candidates are dealt in turn, part 0 first: in each
+         * round part 0 has as many as part 1 or one more, and a round
+         * evaluates at least ncand - count candidates. */
+        CHECK_INT(rp[0].evaluations - rp[1].evaluations, >=, 0);
+        CHECK_INT(rp[0].evaluations - rp[1].evaluations, <=,
+                  r1.ncand > r1.count ? r1.evaluations / (r1.ncand - r1.count) : 0);
     }
 
     /* A threshold between the first and the last error stops earlier. */
