@@ -87,6 +87,7 @@ static void release(run_state *r)
     dtx_mesh_free(&r->src);
     dtx_weld_ctx_free(&r->src_weld);
     free(r->Xtrain);
+    free(r->corr_reused);
     dtx_kp_result_free(&r->kp);
     run_bh_weights_free(r);
     free(r->tg);
