@@ -212,8 +212,6 @@ static dtx_status final_exact(const kp_ctx *c, const int32_t *handles, int32_t m
         return dtx_seterr(e, DTX_ENOMEM, "out of memory");
     for (int64_t i = 0; i < n; i++)
         Wk[i] = INFINITY;
-    if (p->interlude)
-        p->interlude(p->interlude_ctx);
     if (p->claim)
         st = dtx_bbw_handles_claim(c->src, handles, m, p->claim, p->claim_ctx, NULL, Wk, NULL, e);
     else

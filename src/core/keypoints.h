@@ -115,13 +115,6 @@ typedef struct {
      * handle to exactly one part over all parts, whatever the timing). */
     dtx_bbw_claim_fn claim;
     void *claim_ctx;
-    /* Several parts: NULL, or called by every part once, just before the
-     * final set's bounded weights are shared out, so a caller can do
-     * unrelated work there (with claim, the other parts take the handles
-     * meanwhile).  It must not call reduce or claim, and it reports its
-     * own failures to its caller by its own means: the selection goes on. */
-    void (*interlude)(void *ctx);
-    void *interlude_ctx;
 } dtx_kp_params;
 
 /* What the selection found. */

@@ -14,10 +14,7 @@
  *      the source deformed by sp04's correspondence);
  *   3b. method biharmonic: every rank reads the training frames; with
  *      keypoints "auto" the ranks select the key points together, each
- *      evaluating its share of the candidates; on several ranks the
- *      correspondences of phase 4 are then planned first and computed by
- *      their owners in the selection's interlude, while the other ranks
- *      take the closing bounded weights' handles [run_corr.c];
+ *      evaluating its share of the candidates [run_corr.c];
  *   4. correspondences: reused from the partial or the old output when their key
  *      (a hash of both meshes, the markers and the parameters) matches, or
  *      taken from the correspondence store [run_store.c], else computed,
@@ -90,7 +87,6 @@ static void release(run_state *r)
     dtx_mesh_free(&r->src);
     dtx_weld_ctx_free(&r->src_weld);
     free(r->Xtrain);
-    free(r->corr_reused);
     dtx_kp_result_free(&r->kp);
     run_bh_weights_free(r);
     free(r->tg);

@@ -58,9 +58,6 @@ static dtx_status bcast_corr(MPI_Comm comm, int root, dtx_corr *c, int32_t nv_s,
     return DTX_OK;
 }
 
-static dtx_status corr_plan(run_state *r, dtx_error *err);
-static void corr_interlude(void *ctx);
-
 /* ------------------------------------------------------------------ */
 /* 3b. Key points (method biharmonic)                                  */
 /* ------------------------------------------------------------------ */
@@ -180,23 +177,13 @@ dtx_status run_select_keypoints(run_state *r, dtx_error *err)
             "rank(s) x %d thread(s))",
             r->job.source_file, r->job.source_mesh, (int)r->ntrain, (int)kp.candidates, r->nranks,
             r->nthreads);
-    /* Several ranks: the correspondences (phase 4) are planned now and
-     * computed by their owners in the selection's interlude, while the
-     * other ranks take the closing bounded weights' handles instead of
-     * waiting for them afterwards. */
-    if (r->nranks > 1 && run_uses_correspondence(r)) {
-        if ((st = corr_plan(r, err)) != DTX_OK)
-            return st;
-        kp.interlude = corr_interlude;
-        kp.interlude_ctx = r;
-    }
     st = dtx_keypoints_select_comm(&r->src, r->ntrain, r->Xtrain, &kp, r->comm, &r->kp, err);
     if (st != DTX_OK) {
         /* Every rank holds the same message: prefix it alike. */
         dtx_error_prefix(err, "%s:%s: key points", r->job.source_file, r->job.source_mesh);
         return st;
     }
-    r->tm.keypoints += run_wtime() - t0 - r->corr_early_s;
+    r->tm.keypoints += run_wtime() - t0;
     run_say(r, "dtx: key points selected in %.2f s", r->tm.keypoints);
     if (r->rank == 0 && !r->opts->quiet)
         dtx_keypoints_print_steps(stderr, "dtx:   ", &r->kp, bh->eps);
@@ -347,13 +334,15 @@ static void assign_owners(run_state *r, const int *reused)
     free(done);
 }
 
-/* The plan of phase 4 (collective, once per run): which targets' correspondences
- * are found in a cache or the store (rank 0 looks, every rank learns) and
- * which rank computes each of the others. */
-static dtx_status corr_plan(run_state *r, dtx_error *err)
+dtx_status run_correspondences(run_state *r, dtx_error *err)
 {
-    int *reused;
-    if (r->corr_reused)
+    double t0 = run_wtime();
+    dtx_status st = DTX_OK;
+    dtx_corr_params prm;
+    int *reused, ncomputed = 0;
+    char use[200] = "";
+    /* Markers as key points need no correspondence. */
+    if (!run_uses_correspondence(r))
         return DTX_OK;
     reused = calloc((size_t)r->nt, sizeof *reused);
     if (run_agree(r->comm, reused ? DTX_OK : dtx_seterr(err, DTX_ENOMEM, "out of memory"), err) !=
@@ -377,24 +366,13 @@ static dtx_status corr_plan(run_state *r, dtx_error *err)
     run_store_lookup(r, reused);
     MPI_Bcast(reused, r->nt, MPI_INT, 0, r->comm);
     assign_owners(r, reused);
-    r->corr_ncomputed = 0;
-    for (int t = 0; t < r->nt; t++) {
-        r->tg[t].reused = reused[t] == 2 ? RUN_CORR_COMPUTED : reused[t];
-        r->corr_ncomputed += !reused[t];
-    }
-    r->corr_reused = reused;
-    return DTX_OK;
-}
-
-/* This rank's share of the planned correspondences (no MPI). */
-static dtx_status corr_compute(run_state *r, dtx_error *err)
-{
-    dtx_corr_params prm;
-    dtx_status st = run_injected_fault(r, "correspondence", err);
     corr_params_from_job(&r->job, &prm);
+    st = run_injected_fault(r, "correspondence", err);
     for (int t = 0; t < r->nt && st == DTX_OK; t++) {
         target_ctx *tc = &r->tg[t];
-        if (r->corr_reused[t] || tc->owner != r->rank)
+        tc->reused = reused[t] == 2 ? RUN_CORR_COMPUTED : reused[t];
+        ncomputed += !reused[t];
+        if (reused[t] || tc->owner != r->rank)
             continue;
         if (r->method->correspondence == DTX_TRANSFER_CORR_MULTICOMPONENT)
             st = dtx_mc_correspond(&r->src, &tc->mesh, &tc->mk, &prm, r->job.mc.eps_factor,
@@ -405,44 +383,7 @@ static dtx_status corr_compute(run_state *r, dtx_error *err)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tc->tj->name, tc->tj->file,
                              tc->tj->mesh);
     }
-    return st;
-}
-
-/* The key-point selection's interlude (dtx_kp_params.interlude): the
- * owner of a correspondence computes it while the other ranks take the
- * closing bounded weights' handles; the outcome waits for
- * run_correspondences, where the ranks agree on it. */
-static void corr_interlude(void *ctx)
-{
-    run_state *r = ctx;
-    double t0 = run_wtime();
-    r->corr_err.code = DTX_OK;
-    r->corr_err.msg[0] = '\0';
-    r->corr_st = corr_compute(r, &r->corr_err);
-    r->corr_early = 1;
-    r->corr_early_s = run_wtime() - t0;
-}
-
-dtx_status run_correspondences(run_state *r, dtx_error *err)
-{
-    double t0 = run_wtime();
-    dtx_status st;
-    int ncomputed;
-    char use[200] = "";
-    /* Markers as key points need no correspondence. */
-    if (!run_uses_correspondence(r))
-        return DTX_OK;
-    if ((st = corr_plan(r, err)) != DTX_OK)
-        return st;
-    ncomputed = r->corr_ncomputed;
-    if (r->corr_early) {
-        st = r->corr_st;
-        if (st != DTX_OK)
-            *err = r->corr_err;
-        t0 -= r->corr_early_s;
-    } else {
-        st = corr_compute(r, err);
-    }
+    free(reused);
     if (run_agree(r->comm, st, err) != DTX_OK)
         return err->code;
     for (int t = 0; t < r->nt; t++)

@@ -141,16 +141,6 @@ typedef struct {
     dtx_kp_result kp;
     char kp_key[17]; /* cache key of the selection (keypoints "auto") */
     int kp_cached;   /* the key points and their weights came from a cache */
-    /* Phase 4 planned early (run_corr.c): with keypoints "auto" on several
-     * ranks the correspondences are looked up before the selection and
-     * computed in its interlude, while the other ranks take the closing
-     * bounded weights' handles. */
-    int *corr_reused;   /* per target, as run_correspondences keeps it; NULL: not planned */
-    int corr_ncomputed; /* targets to compute, over all ranks */
-    int corr_early;     /* this rank's share was computed in the interlude */
-    dtx_status corr_st; /* its outcome (agreed in run_correspondences) */
-    dtx_error corr_err;
-    double corr_early_s; /* its time, counted as correspondence, not key points */
     int64_t frames_todo, frames_skipped, frames_done; /* global, known on rank 0 */
     dtx_progress prog;
 } run_state;

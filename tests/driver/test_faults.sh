@@ -46,42 +46,6 @@ for phase in read correspondence output transfer finish; do
     check "$phase fault: earlier output unchanged" test "$(cksum < "$W/out.h5")" = "$before"
 done
 grep -h "error" "$W/transfer.err" | head -n 2
-
-# Method biharmonic with key points "auto" on 2 ranks: the correspondence is
-# computed inside the key-point selection (its interlude, while the other
-# rank takes the closing bounded weights), and a failure there, on the
-# rank that owns it (0) or the other, still ends both ranks with its message.
-cat > "$W/bh.json" <<JOB
-{
-  "dtx_job": 1,
-  "method": "biharmonic",
-  "source": {"file": "in.h5", "mesh": "/meshes/cat", "sequences": ["/sequences/poses"]},
-  "targets": [{"name": "lion", "file": "in.h5", "mesh": "/meshes/lion",
-               "markers": {"file": "in.h5", "path": "/markers/m"}}],
-  "output": {"file": "bh.h5"},
-  "biharmonic": {"keypoints": "auto", "candidates": 12, "max_keypoints": 4,
-                 "training_frames": 4}
-}
-JOB
-# (The sanitizer pass checks the owner's failure alone: each run costs
-# seconds of MPI teardown.)
-bh_ranks="0 1"
-[ -n "${DTX_SANITIZED:-}" ] && bh_ranks=0
-for rank in $bh_ranks; do
-    set +e
-    DTX_FAULT="correspondence@$rank" OMP_NUM_THREADS=1 timeout 60 "${mpi[@]}" -np 2 -x DTX_FAULT \
-        "$DTX" run "$W/bh.json" > "$W/bh$rank.out" 2> "$W/bh$rank.err"
-    rc=$?
-    set -e
-    check "biharmonic: correspondence fault on rank $rank of 2: non-zero exit ($rc), not a timeout" \
-        test "$rc" -ne 0 -a "$rc" -ne 124
-    check "biharmonic: correspondence fault on rank $rank: its message" \
-        grep -q "injected fault at phase correspondence on rank $rank" "$W/bh$rank.err"
-    check "biharmonic: correspondence fault on rank $rank: the key-point selection ran" \
-        grep -q "selecting key points" "$W/bh$rank.err"
-    check "biharmonic: correspondence fault on rank $rank: no output" \
-        test ! -e "$W/bh.h5" -a ! -e "$W/bh.h5.partial"
-done
 # What is left is told truthfully: the partial of the transfer fault reads
 # back with its frames done, and --resume is offered for it.
 check "transfer fault: the partial is said to be kept, with its frames done, for --resume" \
