@@ -383,13 +383,7 @@ static void write_frame_stats(FILE *f, const int32_t *fs, const double *gn, cons
     if (inv_counted > 0)
         fprintf(f, "; %lld frames have inverted triangles", (long long)inv_frames);
     if (gn) {
-        /* The largest, lowest frame first on ties; a NaN in a frame done
-         * (a damaged file: dtx validate names it) is the largest. */
-        int64_t tmax = -1;
-        for (int64_t t = 0; t < T; t++)
-            if (done[t] && fs[DTX_H5_FRAME_STATS * t] >= 0 &&
-                (tmax < 0 || (!isnan(gn[tmax]) && !(gn[t] <= gn[tmax]))))
-                tmax = t;
+        const int64_t tmax = dtx_h5_grad_norm_max_frame(gn, fs, done, T);
         if (tmax >= 0)
             fprintf(f, "; final gradient norm at most %.3g (frame %lld)", gn[tmax],
                     (long long)tmax);

@@ -283,6 +283,7 @@ static void result_item(ictx *c, dtx_h5_item *it)
     const char *tgt = dtx_h5_attr_find(it->attrs, it->nattrs, "target_mesh");
     uint8_t *done = NULL;
     double *r = NULL, sum = 0.0;
+    int32_t *fs = NULL;
     int64_t nr = 0;
     memset(&res, 0, sizeof res);
     if (tgt)
@@ -326,7 +327,7 @@ static void result_item(ictx *c, dtx_h5_item *it)
             it->residual_mean = sum / (double)nr;
     }
     if (res.frame_stats >= 0) {
-        int32_t *fs = dtx_alloc((size_t)res.nframes, DTX_H5_FRAME_STATS * sizeof *fs, 0);
+        fs = dtx_alloc((size_t)res.nframes, DTX_H5_FRAME_STATS * sizeof *fs, 0);
         if (!fs) {
             c->oom = 1;
             goto out;
@@ -335,20 +336,21 @@ static void result_item(ictx *c, dtx_h5_item *it)
             it->frames_converged = 0;
             for (int64_t i = 0; i < res.nframes; i++)
                 it->frames_converged += done[i] && fs[DTX_H5_FRAME_STATS * i + 1] == 1;
+        } else {
+            free(fs);
+            fs = NULL;
         }
-        free(fs);
     }
+    /* The largest as dtx report finds it (a NaN in a frame done counts as
+     * the largest, not skipped). */
     if (res.frame_grad_norm >= 0 &&
-        dtx_h5_result_read_frame_grad_norm(&res, 0, res.nframes, r, &e) == DTX_OK) {
-        for (int64_t i = 0; i < res.nframes; i++)
-            if (done[i] && (it->grad_norm_max_frame < 0 || r[i] > it->grad_norm_max)) {
-                it->grad_norm_max = r[i];
-                it->grad_norm_max_frame = i;
-            }
-    }
+        dtx_h5_result_read_frame_grad_norm(&res, 0, res.nframes, r, &e) == DTX_OK &&
+        (it->grad_norm_max_frame = dtx_h5_grad_norm_max_frame(r, fs, done, res.nframes)) >= 0)
+        it->grad_norm_max = r[it->grad_norm_max_frame];
 out:
     free(done);
     free(r);
+    free(fs);
     dtx_h5_result_close(&res);
 }
 

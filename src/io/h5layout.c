@@ -2933,6 +2933,17 @@ dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t 
                         grad_norm, first, count, 0, err);
 }
 
+int64_t dtx_h5_grad_norm_max_frame(const double *gn, const int32_t *fs, const uint8_t *done,
+                                   int64_t T)
+{
+    int64_t tmax = -1;
+    for (int64_t t = 0; t < T; t++)
+        if (done[t] && (!fs || fs[DTX_H5_FRAME_STATS * t] >= 0) &&
+            (tmax < 0 || (!isnan(gn[tmax]) && !(gn[t] <= gn[tmax]))))
+            tmax = t;
+    return tmax;
+}
+
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,
                               double *positions, double *residual, dtx_error *err)
 {

@@ -562,6 +562,14 @@ dtx_status dtx_h5_result_write_frame_grad_norm(dtx_h5_result *res, int64_t first
 dtx_status dtx_h5_result_read_frame_grad_norm(const dtx_h5_result *res, int64_t first,
                                               int64_t count, double *grad_norm, dtx_error *err);
 
+/* The frame with the largest of T final gradient norms gn, among the
+ * frames done (done[t] != 0) whose frame_stats row was written (fs NULL,
+ * or fs[DTX_H5_FRAME_STATS * t] >= 0): the lowest frame on ties, a NaN
+ * counting as larger than any number (a damaged file, which dtx validate
+ * names).  -1 when there is no such frame. */
+int64_t dtx_h5_grad_norm_max_frame(const double *gn, const int32_t *fs, const uint8_t *done,
+                                   int64_t T);
+
 /* Reads frames [first, first+count) of positions (count x nv x 3 doubles,
  * caller-allocated) and, when residual != NULL, the residuals (count). */
 dtx_status dtx_h5_result_read(const dtx_h5_result *res, int64_t first, int64_t count,

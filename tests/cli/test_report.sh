@@ -109,6 +109,16 @@ PY
         grep -q '^Newton solves (frame_stats): 7.0 iterations .*1 of 101 frames stopped before converging (frame 40); 0 frames have inverted triangles; final gradient norm at most 5 (frame 57)\.$' many.md
     check "report, 102 frames: the ten largest, largest first" bash -c \
         "grep -A 13 '^Largest final gradient norms:' many.md | grep -E '^\| [0-9]+ \|' | awk -F'|' '{print \$2+0}' | paste -sd' ' | grep -qx '57 90 101 100 98 97 96 95 94 93'"
+    check "inspect, 102 frames: the same largest norm and frame" bash -c \
+        "'$DTX' inspect many.h5 | grep -q 'final gradient norm at most 5 (frame 57)'"
+    # A NaN in a frame done (a damaged file) is the largest for both, not skipped.
+    cp many.h5 nan.h5
+    /usr/bin/python3 -c 'import h5py, numpy as np; h5py.File("nan.h5", "r+")["/results/lion/many/frame_grad_norm"][20] = np.nan'
+    "$DTX" report nan.h5 -o nan.md --no-pictures 2> /dev/null
+    check "report: a NaN norm in a frame done is named as the largest" \
+        grep -q 'final gradient norm at most nan (frame 20)\.$' nan.md
+    check "inspect: a NaN norm in a frame done is named as the largest" bash -c \
+        "'$DTX' inspect nan.h5 | grep -q 'final gradient norm at most nan (frame 20)'"
 else
     echo "skipped: the report beyond 100 frames (no python3-h5py)"
 fi
