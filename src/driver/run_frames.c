@@ -152,7 +152,7 @@ static dtx_status check_block(run_state *r, result_ctx *rc, const target_ctx *tc
                               const dtx_frame_info *info, int32_t *fstats, double *gnorm,
                               dtx_error *err)
 {
-    const int with_gnorm = r->method->iterative && r->method->reports_grad_norm;
+    const int with_gnorm = r->method->reports_grad_norm;
     for (int64_t i = 0; i < n; i++) {
         if (!isfinite(res[i]) || (with_gnorm && !isfinite(info[i].grad_norm))) {
             /* Name the source coordinate when one is to blame. */
@@ -189,7 +189,7 @@ static int omp_max_threads(void)
 static dtx_status buffers_alloc(const run_state *r, int32_t maxnv, frame_buffers *fb,
                                 dtx_error *err)
 {
-    const int with_gnorm = r->method->iterative && r->method->reports_grad_norm;
+    const int with_gnorm = r->method->reports_grad_norm;
     fb->Xs = dtx_alloc((size_t)fb->block * (size_t)r->src_weld.nv, 3 * sizeof *fb->Xs, 0);
     fb->Xt = dtx_alloc((size_t)fb->block * (size_t)maxnv, 3 * sizeof *fb->Xt, 0);
     fb->res = dtx_alloc((size_t)fb->block, sizeof *fb->res, 0);
@@ -248,7 +248,7 @@ static dtx_status write_block(run_state *r, result_ctx *rc, const target_ctx *tc
     if (r->method->iterative)
         st = dtx_h5_result_write_frame_stats(&rc->res, n > 0 ? f0 : 0, n, fb->fstats, coll,
                                              err);
-    if (st == DTX_OK && r->method->iterative && r->method->reports_grad_norm)
+    if (st == DTX_OK && r->method->reports_grad_norm)
         st = dtx_h5_result_write_frame_grad_norm(&rc->res, n > 0 ? f0 : 0, n, fb->gnorm, coll, err);
     if (st == DTX_OK)
         st = dtx_h5_result_write(&rc->res, n > 0 ? f0 : 0, n, fb->Xt, fb->res, coll, err);

@@ -406,7 +406,7 @@ static dtx_status create_output(run_state *r, dtx_error *err)
                 st = dtx_h5_copy_fps(r->sq[s].seq.group, rc->res.group, err);
             if (st == DTX_OK && r->method->iterative) /* frame_stats */
                 st = dtx_h5_result_add_frame_stats(&rc->res, err);
-            if (st == DTX_OK && r->method->iterative && r->method->reports_grad_norm)
+            if (st == DTX_OK && r->method->reports_grad_norm)
                 st = dtx_h5_result_add_frame_grad_norm(&rc->res, err);
         }
     }
