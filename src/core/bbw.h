@@ -246,6 +246,28 @@ dtx_status dtx_bbw_incr_weights_replace_g(const dtx_bbw_incr *ctx, int32_t j, in
                                           const double *g, double *W_out, dtx_bbw_work *work,
                                           dtx_error *err);
 
+/* Carries Green's functions across a commit, before it is made: G (n x
+ * nv, row t that of vertex verts[t] for the current set, as
+ * dtx_bbw_incr_green gives it) becomes each vertex's Green's function for
+ * the set the commit will make: c added (j < 0) or handle j moved to c
+ * (0 <= j < m).  gc is c's Green's function for the current set (only
+ * read; it must not be a row of G that is updated).  Rows with verts[t] <
+ * 0 are left alone; the others must be free in the new set, and when
+ * moving, verts[t] = handles[j] is allowed (its row is only written).
+ * Exact, as in dtx_bbw_incr_weights_add / _replace: with g_c^- = gc -
+ * ((Q gc)(h_j) / E_jj) w_j (or gc when adding), every g^- is formed
+ * likewise (w_j / E_jj for h_j itself), then g' = g^- - (g^-(c) / g_c^-(c))
+ * g_c^- and g'(c) = 0.  It agrees with new back-substitutions up to
+ * rounding, at O(nv) per row instead of a solve each.  Rows are
+ * independent (threads: OpenMP threads, 0 for the default), so the bits do
+ * not depend on the thread count.  ctx is only read.  Errors: DTX_EINVAL
+ * (bad arguments, or h_j the only handle of its component: then nothing is
+ * written and the caller solves afresh after the commit), DTX_ESOLVE
+ * (g_c^-(c) or E_jj not positive), DTX_ENOMEM. */
+dtx_status dtx_bbw_incr_green_move(const dtx_bbw_incr *ctx, int32_t j, int32_t c, const double *gc,
+                                   int32_t n, const int32_t *verts, double *G, int threads,
+                                   dtx_error *err);
+
 /* Commits: appends c to the handles (add), or sets handle j to c
  * (replace), then refactors and re-solves the weights from scratch (so no
  * rounding accumulates over commits).  Not thread-safe against any other

@@ -24,6 +24,7 @@
 
 #include "bbw_internal.h"
 
+#include <omp.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -395,6 +396,77 @@ dtx_status dtx_bbw_incr_weights_replace_g(const dtx_bbw_incr *ctx, int32_t j, in
     }
     for (int32_t k = 0; k < m; k++)
         W_out[(size_t)c * m + k] = k == j ? 1.0 : 0.0;
+    return DTX_OK;
+}
+
+dtx_status dtx_bbw_incr_green_move(const dtx_bbw_incr *ctx, int32_t j, int32_t c, const double *gc,
+                                   int32_t n, const int32_t *verts, double *G, int threads,
+                                   dtx_error *err)
+{
+    const hset *s = ctx ? &ctx->s : NULL;
+    const dtx__biharmonic *sys = ctx ? &ctx->sys : NULL;
+    int32_t nv, m, hj = -1;
+    double ejj = 0.0, gbb, *gb;
+
+    if (!ctx || !gc || n < 0 || (n > 0 && (!verts || !G)))
+        return dtx_seterr(err, DTX_EINVAL, "biharmonic weights: Green's functions: bad arguments");
+    nv = sys->nv;
+    m = s->m;
+    if (j >= m || c < 0 || c >= nv || s->idx[c] < 0)
+        return dtx_seterr(err, DTX_EINVAL,
+                          "biharmonic weights: Green's functions: handle %d or vertex %d not "
+                          "a move of the current set",
+                          (int)j, (int)c);
+    if (j >= 0) {
+        hj = s->handles[j];
+        if (s->hcount[sys->comp[hj]] == 1)
+            return dtx_seterr(err, DTX_EINVAL,
+                              "biharmonic weights: Green's functions: handle %d (vertex %d) is "
+                              "alone in its component",
+                              (int)j, (int)hj);
+        ejj = s->E[(size_t)j * m + j];
+        if (!(ejj > 0.0))
+            return dtx_seterr(err, DTX_ESOLVE,
+                              "biharmonic weights: handle %d (vertex %d) has energy %g", (int)j,
+                              (int)hj, ejj);
+    }
+    gb = dtx_alloc((size_t)nv, sizeof *gb, 0);
+    if (!gb)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory");
+    memcpy(gb, gc, (size_t)nv * sizeof *gb);
+    if (j >= 0) {
+        double gam = -dtx__row_dot(&sys->Q, hj, gb) / ejj;
+        for (int32_t i = 0; i < nv; i++)
+            gb[i] += gam * s->W[(size_t)i * m + j];
+    }
+    gbb = gb[c];
+    if (!(gbb > 0.0)) {
+        free(gb);
+        return dtx_seterr(err, DTX_ESOLVE,
+                          "biharmonic weights: Green's function of vertex %d is %g there", (int)c,
+                          gbb);
+    }
+#pragma omp parallel for num_threads(threads > 0 ? threads : omp_get_max_threads()) schedule(static)
+    for (int32_t t = 0; t < n; t++) {
+        double *g = G + (size_t)t * nv, a;
+        if (verts[t] < 0)
+            continue;
+        /* ---- drop h_j */
+        if (j >= 0 && verts[t] == hj) {
+            for (int32_t i = 0; i < nv; i++)
+                g[i] = s->W[(size_t)i * m + j] / ejj;
+        } else if (j >= 0) {
+            double gam = -dtx__row_dot(&sys->Q, hj, g) / ejj;
+            for (int32_t i = 0; i < nv; i++)
+                g[i] += gam * s->W[(size_t)i * m + j];
+        }
+        /* ---- add c */
+        a = g[c] / gbb;
+        for (int32_t i = 0; i < nv; i++)
+            g[i] -= a * gb[i];
+        g[c] = 0.0;
+    }
+    free(gb);
     return DTX_OK;
 }
 

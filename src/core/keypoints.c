@@ -58,11 +58,15 @@ typedef struct {
     dtx_skin_eval *ev; /* the round's frames, clustering and starting rotations (fast mode) */
     /* Fast mode: candidate i's Green's function for the handle set of
      * generation ggen[i] (-1: none) at gcache + i nv; the generation counts
-     * the commits.  A round depends on the set, so the replacement rounds
-     * between two commits share their back-substitutions.  NULL when it
-     * would take more than KP_GCACHE_MAX doubles (or memory is short). */
+     * the commits.  Every part holds every candidate's (gcache_fill): they
+     * are solved once, then carried across each commit by a rank-one
+     * update (gcache_move) instead of solved again, and a candidate's
+     * history, so its bits, must not depend on which part evaluates it.
+     * NULL when it would take more than KP_GCACHE_MAX doubles (or memory
+     * is short).  gverts: ncand, scratch for gcache_move. */
     double *gcache;
     int64_t *ggen, gen;
+    int32_t *gverts;
 } kp_ctx;
 
 /* Largest Green's function cache, in doubles (256 MiB). */
@@ -256,6 +260,57 @@ static void round_share(const unsigned char *inset, int32_t ncand, const dtx_kp_
     }
 }
 
+/* Fast mode with the cache: the Green's function of every candidate not
+ * in the set that has none for the current set, on every part alike (so a
+ * candidate's function does not depend on the number of parts).  A failed
+ * solve leaves ggen[i] = -1: round_eval tries again and counts the
+ * failure. */
+static void gcache_fill(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
+                        const unsigned char *inset, kp_work *ws, int nthreads)
+{
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1)
+    for (int32_t i = 0; i < ncand; i++) {
+        dtx_error e;
+        if (inset[i] || c->ggen[i] == c->gen)
+            continue;
+        c->ggen[i] = dtx_bbw_incr_green(incr, cand[i], c->gcache + (size_t)i * (size_t)c->nv,
+                                        ws[omp_get_thread_num()].bw, &e) == DTX_OK
+                         ? c->gen
+                         : -1;
+    }
+}
+
+/* Before the commit that adds candidate b (replace_j < 0) or puts it in
+ * place of key replace_j: every cached Green's function of a candidate
+ * that stays out of the set, and the one of the key that leaves it, is
+ * carried to the new set (dtx_bbw_incr_green_move) and marked with the
+ * next generation.  When that is not possible (b's own function missing,
+ * a key alone in its component, memory) nothing is marked, and the next
+ * round's gcache_fill solves them afresh. */
+static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
+                        const unsigned char *inset, int32_t b, int replace_j, int nthreads)
+{
+    int32_t hj = replace_j >= 0 ? dtx_bbw_incr_handles(incr)[replace_j] : -1;
+    dtx_error e;
+    if (!c->gcache || c->ggen[b] != c->gen)
+        return;
+    for (int32_t i = 0; i < ncand; i++) {
+        c->gverts[i] = -1;
+        if (i == b)
+            continue;
+        if (cand[i] == hj)
+            c->gverts[i] = hj;
+        else if (!inset[i] && c->ggen[i] == c->gen)
+            c->gverts[i] = cand[i];
+    }
+    if (dtx_bbw_incr_green_move(incr, replace_j, cand[b], c->gcache + (size_t)b * (size_t)c->nv,
+                                ncand, c->gverts, c->gcache, nthreads, &e) != DTX_OK)
+        return;
+    for (int32_t i = 0; i < ncand; i++)
+        if (c->gverts[i] >= 0)
+            c->ggen[i] = c->gen + 1;
+}
+
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
  * == 0) that this part owns (round_share); +INFINITY elsewhere.
  * replace_j < 0: add the candidate; else replace handle replace_j by it.
@@ -372,6 +427,8 @@ static dtx_status score_round(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
+    if (!c->exact && c->gcache)
+        gcache_fill(c, incr, cand, res->ncand, inset, ws, nthreads);
     round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, mine, errs,
                &res->evaluations, &res->failed);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
@@ -487,11 +544,14 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if (!c.exact && (size_t)res->ncand * (size_t)c.nv <= KP_GCACHE_MAX) {
         c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 0);
         c.ggen = dtx_alloc((size_t)res->ncand, sizeof *c.ggen, 0);
-        if (!c.gcache || !c.ggen) { /* only slower without */
+        c.gverts = dtx_alloc((size_t)res->ncand, sizeof *c.gverts, 0);
+        if (!c.gcache || !c.ggen || !c.gverts) { /* only slower without */
             free(c.gcache);
             free(c.ggen);
+            free(c.gverts);
             c.gcache = NULL;
             c.ggen = NULL;
+            c.gverts = NULL;
         }
         for (int32_t i = 0; c.ggen && i < res->ncand; i++)
             c.ggen[i] = -1;
@@ -517,6 +577,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             goto fail;
         if (b < 0 || !(errs[b] < res->error))
             break;
+        gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads);
         if ((st = dtx_bbw_incr_add(incr, cand[b], err)) != DTX_OK)
             goto fail;
         c.gen++;
@@ -545,6 +606,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;
+            gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads);
             if ((st = dtx_bbw_incr_replace(incr, j, cand[b], err)) != DTX_OK)
                 goto fail;
             c.gen++;
@@ -611,6 +673,7 @@ done:
     dtx_skin_eval_free(&c.ev);
     free(c.gcache);
     free(c.ggen);
+    free(c.gverts);
     dtx_skin_mesh_free(&c.sm);
     dtx_bbw_incr_free(&incr);
     return st;

@@ -619,6 +619,90 @@ static void test_incremental(void)
     dtx_mesh_free(&cap);
 }
 
+/* Green's functions carried across a commit (dtx_bbw_incr_green_move)
+ * equal those solved afresh for the new set, for an added handle and for
+ * every handle moved, the leaving handle's own included; the bits do not
+ * depend on the thread count; a row marked -1 is left alone. */
+static void test_green_move(void)
+{
+    dtx_mesh cap = {0};
+    dtx_error err = {0};
+    int32_t h[4] = {7, 150, 290, 384}, m = 4, nv;
+    int32_t others[4] = {0, 99, 222, 300}, c = 40;
+    double worst = 0.0, scale = 0.0;
+    dtx_bbw_work *work = NULL;
+    dtx_bbw_incr *ctx = NULL;
+
+    gen_capsule(24, 16, 1.5, &cap);
+    nv = cap.nv;
+    CHECK_OK(dtx_bbw_incr_create(&cap, h, m, &ctx, &err), &err);
+    work = dtx_bbw_work_new(ctx);
+    CHECK(work != NULL);
+    for (int32_t j = -1; j < m && ctx && work; j++) {
+        /* Rows: the four others, then (when moving) h_j, then a row left
+         * alone. */
+        int32_t verts[6], nh = j < 0 ? m + 1 : m, hh[5];
+        double *gc = malloc((size_t)nv * sizeof *gc);
+        double *G = malloc((size_t)6 * nv * sizeof *G), *G2 = malloc((size_t)6 * nv * sizeof *G2);
+        double *fresh = malloc((size_t)nv * sizeof *fresh);
+        dtx_bbw_incr *nctx = NULL;
+        dtx_bbw_work *nwork = NULL;
+        CHECK_OK(dtx_bbw_incr_green(ctx, c, gc, work, &err), &err);
+        for (int t = 0; t < 4; t++) {
+            verts[t] = others[t];
+            CHECK_OK(dtx_bbw_incr_green(ctx, others[t], G + (size_t)t * nv, work, &err), &err);
+        }
+        verts[4] = j < 0 ? -1 : h[j];
+        for (int32_t i = 0; i < nv; i++)
+            G[(size_t)4 * nv + i] = j < 0 ? 1.0 : NAN; /* unused, or only written */
+        verts[5] = -1;
+        for (int32_t i = 0; i < nv; i++)
+            G[(size_t)5 * nv + i] = 2.0;
+        memcpy(G2, G, (size_t)6 * nv * sizeof *G);
+        CHECK_OK(dtx_bbw_incr_green_move(ctx, j, c, gc, 6, verts, G, 1, &err), &err);
+        CHECK_OK(dtx_bbw_incr_green_move(ctx, j, c, gc, 6, verts, G2, 2, &err), &err);
+        CHECK(memcmp(G, G2, (size_t)6 * nv * sizeof *G) == 0);
+        for (int32_t i = 0; i < nv; i++)
+            CHECK(G[(size_t)5 * nv + i] == 2.0 && (j >= 0 || G[(size_t)4 * nv + i] == 1.0));
+        /* Afresh for the new set. */
+        memcpy(hh, h, sizeof h);
+        hh[j < 0 ? m : j] = c;
+        CHECK_OK(dtx_bbw_incr_create(&cap, hh, nh, &nctx, &err), &err);
+        nwork = nctx ? dtx_bbw_work_new(nctx) : NULL;
+        CHECK(nwork != NULL);
+        for (int t = 0; t < 5 && nwork; t++) {
+            if (verts[t] < 0)
+                continue;
+            CHECK_OK(dtx_bbw_incr_green(nctx, verts[t], fresh, nwork, &err), &err);
+            for (int32_t i = 0; i < nv; i++)
+                scale = fmax(scale, fabs(fresh[i]));
+            worst = fmax(worst, max_abs_diff(G + (size_t)t * nv, fresh, (size_t)nv));
+            CHECK(G[(size_t)t * nv + c] == 0.0);
+        }
+        dtx_bbw_work_free(&nwork);
+        dtx_bbw_incr_free(&nctx);
+        free(gc);
+        free(G);
+        free(G2);
+        free(fresh);
+    }
+    printf("Green's functions carried across a commit vs solved afresh: %.3g (largest %.3g)\n",
+           worst, scale);
+    CHECK_DBL(scale, >, 0.0);
+    CHECK_DBL(worst, <=, 1e-10 * scale);
+    /* c must be free now; j in range. */
+    if (ctx && work) {
+        double *g = malloc((size_t)nv * sizeof *g);
+        int32_t v = 0;
+        CHECK_EQ_INT(dtx_bbw_incr_green_move(ctx, -1, h[1], g, 1, &v, g, 1, &err), DTX_EINVAL);
+        CHECK_EQ_INT(dtx_bbw_incr_green_move(ctx, m, c, g, 1, &v, g, 1, &err), DTX_EINVAL);
+        free(g);
+    }
+    dtx_bbw_work_free(&work);
+    dtx_bbw_incr_free(&ctx);
+    dtx_mesh_free(&cap);
+}
+
 /* Two components: every one needs a handle; a handle alone in its
  * component may only move within it. */
 static void test_components(void)
@@ -656,6 +740,14 @@ static void test_components(void)
         CHECK_DBL(max_abs_diff(W, Ws, (size_t)nv * 3), <=, 1e-10);
         CHECK_EQ_INT(dtx_bbw_incr_weights_replace(ctx, 2, 20, W, work, &err), DTX_EINVAL);
         CHECK(check_contains(err.msg, "without a handle"));
+        /* Its Green's functions are not carried across such a move. */
+        {
+            int32_t v = 60;
+            CHECK_OK(dtx_bbw_incr_green(ctx, half + 20, Ws, work, &err), &err);
+            CHECK_EQ_INT(dtx_bbw_incr_green_move(ctx, 2, half + 20, Ws, 1, &v, W, 1, &err),
+                         DTX_EINVAL);
+            CHECK(check_contains(err.msg, "alone in its component"));
+        }
         /* Moving a handle of the first component into the second is fine. */
         CHECK_OK(dtx_bbw_incr_weights_replace(ctx, 1, half + 30, W, work, &err), &err);
         hs[1] = half + 30;
@@ -864,6 +956,7 @@ int main(void)
     test_degenerate();
     test_bbw();
     test_incremental();
+    test_green_move();
     test_components();
     test_bad_input();
     test_fps();
