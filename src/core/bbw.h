@@ -275,6 +275,23 @@ dtx_status dtx_bbw_incr_green_move(const dtx_bbw_incr *ctx, int32_t j, int32_t c
 dtx_status dtx_bbw_incr_add(dtx_bbw_incr *ctx, int32_t c, dtx_error *err);
 dtx_status dtx_bbw_incr_replace(dtx_bbw_incr *ctx, int32_t j, int32_t c, dtx_error *err);
 
+/* A carried commit: c added (j < 0) or put in place of handle j, with the
+ * new set's weights from c's Green's function g for the current set (as
+ * dtx_bbw_incr_weights_add_g / _replace_g give them) instead of a
+ * factorisation and solves.  Rounding then accumulates over such commits
+ * (about 1e-12 relative per commit on the cat), and the new set is not
+ * factored: dtx_bbw_incr_green and the functions that solve (no g) fail
+ * with DTX_EINVAL until dtx_bbw_incr_factor.  For callers that carry their
+ * Green's functions too (dtx_bbw_incr_green_move) and rarely solve.  Not
+ * thread-safe; on failure ctx is unchanged.  Errors: those of the _g
+ * functions, DTX_ENOMEM. */
+dtx_status dtx_bbw_incr_commit_g(dtx_bbw_incr *ctx, int32_t j, int32_t c, const double *g,
+                                 dtx_bbw_work *work, dtx_error *err);
+
+/* Factors the current set when a carried commit left it unfactored (a
+ * no-op otherwise).  Not thread-safe.  Errors: DTX_ENOMEM, DTX_ESOLVE. */
+dtx_status dtx_bbw_incr_factor(dtx_bbw_incr *ctx, dtx_error *err);
+
 /* ------------------------------------------------------------------ */
 /* Key-point candidates (fps.c)                                        */
 /* ------------------------------------------------------------------ */

@@ -36,7 +36,8 @@ typedef struct {
     int32_t *fvert;   /* nfree: vertex of each free index */
     int32_t nfree;
     int32_t *hcount;  /* ncomp: handles in each component */
-    cholmod_factor *L; /* of Q(f, f); NULL when nothing is free */
+    cholmod_factor *L; /* of Q(f, f); NULL when nothing is free or not yet
+                        * factored (a carried commit: dtx_bbw_incr_factor) */
     double *W;        /* nv x m */
     double *E;        /* m x m, E[j*m + k] = (Q w_k)(h_j) */
 } hset;
@@ -67,8 +68,10 @@ static void hset_free(hset *s, cholmod_common *cc)
     memset(s, 0, sizeof *s);
 }
 
+/* Win (nv x m): the set's weights when the caller has them (a carried
+ * commit): no factorisation, no solve.  NULL: factored and solved here. */
 static dtx_status hset_build(const dtx__biharmonic *sys, const int32_t *handles, int32_t m,
-                             cholmod_common *cc, hset *s, dtx_error *err)
+                             const double *Win, cholmod_common *cc, hset *s, dtx_error *err)
 {
     const dtx_csr *Q = &sys->Q;
     int32_t nv = sys->nv;
@@ -104,7 +107,9 @@ static dtx_status hset_build(const dtx__biharmonic *sys, const int32_t *handles,
     for (int32_t k = 0; k < m; k++)
         s->W[(size_t)handles[k] * m + k] = 1.0;
 
-    if (s->nfree > 0) {
+    if (Win)
+        memcpy(s->W, Win, (size_t)nv * (size_t)m * sizeof *s->W);
+    else if (s->nfree > 0) {
         double *Bx;
         const double *Xx;
         size_t nf = (size_t)s->nfree;
@@ -178,7 +183,7 @@ dtx_status dtx_bbw_incr_create(const dtx_mesh *mesh, const int32_t *handles, int
         return st;
     }
     dtx__bbw_chol_start(&ctx->cc);
-    st = hset_build(&ctx->sys, handles, m, &ctx->cc, &ctx->s, err);
+    st = hset_build(&ctx->sys, handles, m, NULL, &ctx->cc, &ctx->s, err);
     if (st != DTX_OK) {
         dtx_bbw_incr_free(&ctx);
         return st;
@@ -273,6 +278,10 @@ static dtx_status green(const dtx_bbw_incr *ctx, int32_t c, dtx_bbw_work *w, dtx
     B.x = w->b;
     B.xtype = CHOLMOD_REAL;
     B.dtype = CHOLMOD_DOUBLE;
+    if (!s->L)
+        return dtx_seterr(err, DTX_EINVAL,
+                          "biharmonic weights: the set is not factored after a carried commit "
+                          "(dtx_bbw_incr_factor)");
     memset(w->b, 0, (size_t)s->nfree * sizeof *w->b);
     w->b[s->idx[c]] = 1.0;
     if (!cholmod_solve2(CHOLMOD_A, s->L, &B, NULL, &w->X, NULL, &w->Y, &w->E, &w->cc))
@@ -474,10 +483,11 @@ dtx_status dtx_bbw_incr_green_move(const dtx_bbw_incr *ctx, int32_t j, int32_t c
 /* Commits                                                             */
 /* ------------------------------------------------------------------ */
 
-static dtx_status commit(dtx_bbw_incr *ctx, const int32_t *handles, int32_t m, dtx_error *err)
+static dtx_status commit(dtx_bbw_incr *ctx, const int32_t *handles, int32_t m, const double *W,
+                         dtx_error *err)
 {
     hset fresh;
-    dtx_status st = hset_build(&ctx->sys, handles, m, &ctx->cc, &fresh, err);
+    dtx_status st = hset_build(&ctx->sys, handles, m, W, &ctx->cc, &fresh, err);
     if (st != DTX_OK)
         return st;
     hset_free(&ctx->s, &ctx->cc);
@@ -498,7 +508,7 @@ dtx_status dtx_bbw_incr_add(dtx_bbw_incr *ctx, int32_t c, dtx_error *err)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory adding a handle");
     memcpy(h, ctx->s.handles, (size_t)m * sizeof *h);
     h[m] = c;
-    st = commit(ctx, h, m + 1, err);
+    st = commit(ctx, h, m + 1, NULL, err);
     free(h);
     return st;
 }
@@ -515,7 +525,56 @@ dtx_status dtx_bbw_incr_replace(dtx_bbw_incr *ctx, int32_t j, int32_t c, dtx_err
         return dtx_seterr(err, DTX_ENOMEM, "out of memory moving a handle");
     memcpy(h, ctx->s.handles, (size_t)m * sizeof *h);
     h[j] = c;
-    st = commit(ctx, h, m, err);
+    st = commit(ctx, h, m, NULL, err);
     free(h);
+    return st;
+}
+
+dtx_status dtx_bbw_incr_commit_g(dtx_bbw_incr *ctx, int32_t j, int32_t c, const double *g,
+                                 dtx_bbw_work *work, dtx_error *err)
+{
+    int32_t m = ctx ? ctx->s.m : 0, mn = j < 0 ? m + 1 : m, *h;
+    double *W;
+    dtx_status st;
+    if (!ctx || !g || !work)
+        return dtx_seterr(err, DTX_EINVAL, "biharmonic weights: carried commit: bad arguments");
+    if (j >= m)
+        return dtx_seterr(err, DTX_ERANGE, "biharmonic weights: handle %d out of range [0, %d)",
+                          (int)j, (int)m);
+    h = dtx_alloc((size_t)mn, sizeof *h, 0);
+    W = dtx_alloc((size_t)ctx->sys.nv, (size_t)mn * sizeof *W, 0);
+    if (!h || !W) {
+        free(h);
+        free(W);
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory committing a handle");
+    }
+    st = j < 0 ? dtx_bbw_incr_weights_add_g(ctx, c, g, W, work, err)
+               : dtx_bbw_incr_weights_replace_g(ctx, j, c, g, W, work, err);
+    if (st == DTX_OK) {
+        memcpy(h, ctx->s.handles, (size_t)m * sizeof *h);
+        h[j < 0 ? m : j] = c;
+        st = commit(ctx, h, mn, W, err);
+    }
+    free(h);
+    free(W);
+    return st;
+}
+
+dtx_status dtx_bbw_incr_factor(dtx_bbw_incr *ctx, dtx_error *err)
+{
+    hset *s;
+    cholmod_sparse *A;
+    dtx_status st;
+    if (!ctx)
+        return dtx_seterr(err, DTX_EINVAL, "biharmonic weights: no context");
+    s = &ctx->s;
+    if (s->L || s->nfree == 0)
+        return DTX_OK;
+    A = dtx__block(&ctx->sys.Q, s->idx, s->fvert, s->nfree, &ctx->cc);
+    if (!A)
+        return dtx_seterr(err, DTX_ENOMEM, "out of memory for the biharmonic weights of %d "
+                          "handles on %d vertices", (int)s->m, (int)ctx->sys.nv);
+    st = dtx__bbw_factor(A, "biharmonic weights", &s->L, &ctx->cc, err);
+    cholmod_free_sparse(&A, &ctx->cc);
     return st;
 }

@@ -265,9 +265,16 @@ static void round_share(const unsigned char *inset, int32_t ncand, const dtx_kp_
  * candidate's function does not depend on the number of parts).  A failed
  * solve leaves ggen[i] = -1: round_eval tries again and counts the
  * failure. */
-static void gcache_fill(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
+static void gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
                         const unsigned char *inset, kp_work *ws, int nthreads)
 {
+    int need = 0;
+    dtx_error e0;
+    for (int32_t i = 0; i < ncand; i++)
+        need |= !inset[i] && c->ggen[i] != c->gen;
+    /* A carried commit (key_commit) left the set unfactored. */
+    if (!need || dtx_bbw_incr_factor(incr, &e0) != DTX_OK)
+        return;
 #pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1)
     for (int32_t i = 0; i < ncand; i++) {
         dtx_error e;
@@ -309,6 +316,20 @@ static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand
     for (int32_t i = 0; i < ncand; i++)
         if (c->gverts[i] >= 0)
             c->ggen[i] = c->gen + 1;
+}
+
+/* The commit of candidate b (added, or in place of key replace_j): carried
+ * with b's cached Green's function when there is one (no factorisation;
+ * gcache_fill factors the set if a solve is needed later), else a plain
+ * commit.  Call after gcache_move, before c->gen moves on. */
+static dtx_status key_commit(const kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t b,
+                             int replace_j, kp_work *ws, dtx_error *err)
+{
+    if (c->gcache && c->ggen[b] == c->gen)
+        return dtx_bbw_incr_commit_g(incr, replace_j, cand[b],
+                                     c->gcache + (size_t)b * (size_t)c->nv, ws[0].bw, err);
+    return replace_j < 0 ? dtx_bbw_incr_add(incr, cand[b], err)
+                         : dtx_bbw_incr_replace(incr, replace_j, cand[b], err);
 }
 
 /* One round: errs[i] for every candidate i not in the set (flag inset[i]
@@ -418,7 +439,7 @@ static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error
  * key points (candidate i added, or put in place of key replace_j >= 0),
  * reduced over the parts, and *best the candidate with the least (-1 when
  * none).  Sets *reduce_failed when the reduction over the parts failed. */
-static dtx_status score_round(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+static dtx_status score_round(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand,
                               const unsigned char *inset, int replace_j, int32_t k, kp_work *ws,
                               int nthreads, const dtx_kp_params *p, unsigned char *mine,
                               double *errs, dtx_kp_result *res, int *reduce_failed, int32_t *best,
@@ -578,7 +599,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         if (b < 0 || !(errs[b] < res->error))
             break;
         gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads);
-        if ((st = dtx_bbw_incr_add(incr, cand[b], err)) != DTX_OK)
+        if ((st = key_commit(&c, incr, cand, b, -1, ws, err)) != DTX_OK)
             goto fail;
         c.gen++;
         res->keys[res->count++] = cand[b];
@@ -607,7 +628,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             if (b < 0 || !(errs[b] < res->error))
                 continue;
             gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads);
-            if ((st = dtx_bbw_incr_replace(incr, j, cand[b], err)) != DTX_OK)
+            if ((st = key_commit(&c, incr, cand, b, (int)j, ws, err)) != DTX_OK)
                 goto fail;
             c.gen++;
             old = res->keys[j];

@@ -629,7 +629,7 @@ static void test_green_move(void)
     dtx_error err = {0};
     int32_t h[4] = {7, 150, 290, 384}, m = 4, nv;
     int32_t others[4] = {0, 99, 222, 300}, c = 40;
-    double worst = 0.0, scale = 0.0;
+    double worst = 0.0, scale = 0.0, worst_w = 0.0;
     dtx_bbw_work *work = NULL;
     dtx_bbw_incr *ctx = NULL;
 
@@ -679,6 +679,30 @@ static void test_green_move(void)
             worst = fmax(worst, max_abs_diff(G + (size_t)t * nv, fresh, (size_t)nv));
             CHECK(G[(size_t)t * nv + c] == 0.0);
         }
+        /* A carried commit of the same move: the new set's weights without
+         * a factorisation, which dtx_bbw_incr_factor makes when asked. */
+        if (nctx) {
+            dtx_bbw_incr *cctx = NULL;
+            dtx_bbw_work *cwork = NULL;
+            CHECK_OK(dtx_bbw_incr_create(&cap, h, m, &cctx, &err), &err);
+            cwork = cctx ? dtx_bbw_work_new(cctx) : NULL;
+            CHECK(cwork != NULL);
+            if (cwork) {
+                CHECK_OK(dtx_bbw_incr_commit_g(cctx, j, c, gc, cwork, &err), &err);
+                CHECK_EQ_INT(dtx_bbw_incr_count(cctx), nh);
+                CHECK(memcmp(dtx_bbw_incr_handles(cctx), hh, (size_t)nh * sizeof *hh) == 0);
+                worst_w = fmax(worst_w, max_abs_diff(dtx_bbw_incr_weights(cctx),
+                                                     dtx_bbw_incr_weights(nctx),
+                                                     (size_t)nv * nh));
+                CHECK_EQ_INT(dtx_bbw_incr_green(cctx, others[1], fresh, cwork, &err), DTX_EINVAL);
+                CHECK(check_contains(err.msg, "not factored"));
+                CHECK_OK(dtx_bbw_incr_factor(cctx, &err), &err);
+                CHECK_OK(dtx_bbw_incr_green(cctx, others[1], fresh, cwork, &err), &err);
+                worst = fmax(worst, max_abs_diff(G + (size_t)nv, fresh, (size_t)nv));
+            }
+            dtx_bbw_work_free(&cwork);
+            dtx_bbw_incr_free(&cctx);
+        }
         dtx_bbw_work_free(&nwork);
         dtx_bbw_incr_free(&nctx);
         free(gc);
@@ -690,6 +714,8 @@ static void test_green_move(void)
            worst, scale);
     CHECK_DBL(scale, >, 0.0);
     CHECK_DBL(worst, <=, 1e-10 * scale);
+    printf("weights of a carried commit vs factored afresh: %.3g\n", worst_w);
+    CHECK_DBL(worst_w, <=, 1e-10);
     /* c must be free now; j in range. */
     if (ctx && work) {
         double *g = malloc((size_t)nv * sizeof *g);
