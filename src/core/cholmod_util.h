@@ -6,7 +6,8 @@
  *
  * Every caller owns its cholmod_common (one per concurrent caller) and its
  * factors; solves stay with the callers (cholmod_solve2 with workspace they
- * keep across frames).
+ * keep across frames), except solves with a few diagonal entries of the
+ * factored matrix changed (dtx__chol_lowrank_*, chol_lowrank.c).
  *
  * Factorising without CHOLMOD's own OpenMP teams (DTX__CHOL_NO_TEAMS).
  * CHOLMOD's supernodal factorisation runs some of its loops on OpenMP
