@@ -6,7 +6,8 @@
  *
  * Every caller owns its cholmod_common (one per concurrent caller) and its
  * factors; solves stay with the callers (cholmod_solve2 with workspace they
- * keep across frames).
+ * keep across frames), except solves with a few diagonal entries of the
+ * factored matrix changed (dtx__chol_lowrank_*, chol_lowrank.c).
  *
  * Factorising without CHOLMOD's own OpenMP teams (DTX__CHOL_NO_TEAMS).
  * CHOLMOD's supernodal factorisation runs some of its loops on OpenMP
@@ -137,5 +138,56 @@ dtx_status dtx__chol_analyze_factorize(cholmod_sparse *A, dtx__chol_threads thre
  * NULL; returns the status. */
 dtx_status dtx__chol_error(const cholmod_factor *L, const char *doing, const char *system,
                            const char *hint, const cholmod_common *cc, dtx_error *err);
+
+/* ------------------------------------------------------------------ */
+/* Low-rank diagonal changes (chol_lowrank.c)                          */
+/* ------------------------------------------------------------------ */
+
+/* Solves with A' = A + sum_a c[a] e_idx[a] e_idx[a]' (a few diagonal
+ * entries of A changed) from a factor L of A, without refactorising:
+ * Sherman-Morrison-Woodbury, see chol_lowrank.c.  Set up with
+ * dtx__chol_lowrank_set, solve any number of times with
+ * dtx__chol_lowrank_solve while L holds A's factor, release with
+ * dtx__chol_lowrank_free.  Zero-initialise before the first set. */
+typedef struct {
+    int32_t k, n;
+    int64_t nw;       /* entries of W */
+    int64_t *wp;      /* k + 1: column starts of W = L \ (P U) */
+    int32_t *wi;      /* nw: their rows, in the factor's order */
+    double *wx;       /* nw: their values */
+    double *dinv;     /* n: 1 / D (1 for an L L' factor) */
+    double *s;        /* k x k: LU of S = C^-1 + W' D^-1 W, row-major */
+    int32_t *piv;     /* k: its row interchanges */
+    double *t;        /* 8 k: scratch */
+    double eta;       /* backward error of the last solve */
+    cholmod_dense *Y1, *Y2, *R, *DX, *Yw, *Ew; /* workspace kept across solves */
+} dtx__chol_lowrank;
+
+/* Prepares lr for the k changes (idx: distinct rows of A in [0, n), c:
+ * finite nonzero changes) of the matrix that L (numeric, complete: a
+ * supernodal L L' or a simplicial factor, int indices, real double) holds.
+ * Costs the k forward solves along the elimination tree paths of the
+ * changed rows, and O(k^3).  DTX_EINVAL for an unsupported factor or a bad
+ * change, DTX_ESOLVE when S is singular (A' is), DTX_ENOMEM; lr is then
+ * empty.  Not thread-safe on one lr. */
+dtx_status dtx__chol_lowrank_set(const cholmod_factor *L, int32_t k, const int32_t *idx,
+                                 const double *c, dtx__chol_lowrank *lr, cholmod_common *cc,
+                                 dtx_error *err);
+
+/* *X (allocated or reused, as cholmod_solve2's X) = A'^-1 B, B n x m (m <=
+ * 8), A the changed matrix A' itself (symmetric, lower triangle, packed):
+ * the Woodbury solve, then refinement steps x += A'^-1 (B - A' x) (each
+ * costs a solve with L and a mat-vec with A) until the backward error
+ * max over columns |B - A' x|_inf / (|A'|_inf |x|_inf + |B|_inf) is at
+ * most tol, for at most max_steps steps (*steps says how many; lr->eta the
+ * last backward error).  DTX_ESOLVE when tol was not reached (*X holds the
+ * last iterate), DTX_ENOMEM.  Serial, in a fixed order: the same bits for
+ * any thread count. */
+dtx_status dtx__chol_lowrank_solve(dtx__chol_lowrank *lr, cholmod_factor *L, cholmod_sparse *A,
+                                   cholmod_dense *B, int max_steps, double tol, cholmod_dense **X,
+                                   int *steps, cholmod_common *cc, dtx_error *err);
+
+/* Frees what lr holds and zeroes it (lr may be NULL or empty). */
+void dtx__chol_lowrank_free(dtx__chol_lowrank *lr, cholmod_common *cc);
 
 #endif /* DTX_CHOLMOD_UTIL_H */

@@ -8,7 +8,14 @@
  * phase.  Unknowns are the source vertices and one fourth vertex per
  * triangle; marker vertices are fixed at their target positions.  The three
  * coordinates share one matrix, so each phase is one numeric factorisation
- * (the symbolic analysis is done once) and one solve with 3 columns.
+ * (the symbolic analysis is done once) and one solve with 3 columns.  A
+ * phase at the previous weight whose set of vertices with a valid closest
+ * point is the factored one's reuses the factor; when that set changed by
+ * a few vertices (the last phases, once the fit has settled), the matrix
+ * differs from the factored one by those vertices' diagonal entries, and
+ * the phase is solved from the old factor by a low-rank correction refined
+ * to a direct solve's backward error (chol_lowrank.c; on the pebble camel
+ * within 4e-13 of a fresh factorisation's answer).
  *
  * Then triangles are paired: each deformed source triangle with the nearest
  * compatible target triangle (centroids closer than a threshold, normals
@@ -34,6 +41,16 @@
 #include <string.h>
 
 #define DTX_PI 3.14159265358979323846
+
+/* A phase whose matrix differs from the factored one by at most this many
+ * diagonal entries (vertices that gained or lost their closest point at
+ * the same weight) is solved from the old factor by a low-rank correction
+ * (cholmod_util.h) instead of refactorising; it must reach a direct solve's
+ * backward error within LOWRANK_STEPS refinement steps, or the phase
+ * refactorises after all. */
+#define LOWRANK_MAX_K 200
+#define LOWRANK_STEPS 3
+#define LOWRANK_TOL 1e-15
 
 void dtx_corr_params_default(dtx_corr_params *p)
 {
@@ -582,13 +599,15 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
     cholmod_triplet *T = NULL;
     cholmod_sparse *K = NULL;
     cholmod_factor *L = NULL;
-    cholmod_dense *B = NULL, *Xs = NULL;
+    cholmod_dense *B = NULL, *Xs = NULL, *Ys = NULL, *Es = NULL;
     dtx__chol_refactor R = {NULL, NULL};
+    dtx__chol_lowrank lr;
     base_terms base;
     const dtx__tet *tets = NULL;
     int64_t ntetpairs = 0;
-    int32_t *freeidx, *diagpos = NULL, *hit = NULL, *qorder;
+    int32_t *freeidx, *diagpos = NULL, *hit = NULL, *qorder, *lr_idx = NULL;
     double *fixed, *rhs_base, *kx_base = NULL, *vn = NULL, *cp = NULL, *wvert;
+    double *diag_fact = NULL, *lr_c = NULL;
     unsigned char *valid = NULL, *valid_prev = NULL;
     double wc_prev = -1.0;
     int32_t nfree;
@@ -596,6 +615,7 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
     dtx_error err_tets;
 
     memset(&base, 0, sizeof base);
+    memset(&lr, 0, sizeof lr);
     memset(&err_tets, 0, sizeof err_tets);
     dtx__chol_start(&cc, DTX__CHOL_AUTO, DTX__CHOL_ORDER_DEFAULT);
     /* E_R's terms are made on a second thread while E_S and E_I are
@@ -668,7 +688,10 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         int32_t *Kp = K->p, *Ki = K->i;
         kx_base = dtx_alloc((size_t)Kp[nfree], sizeof *kx_base, 0);
         diagpos = dtx_alloc((size_t)nfree, sizeof *diagpos, 0);
-        if (!kx_base || !diagpos)
+        diag_fact = dtx_alloc((size_t)nfree, sizeof *diag_fact, 0);
+        lr_idx = dtx_alloc(LOWRANK_MAX_K, sizeof *lr_idx, 0);
+        lr_c = dtx_alloc(LOWRANK_MAX_K, sizeof *lr_c, 0);
+        if (!kx_base || !diagpos || !diag_fact || !lr_idx || !lr_c)
             goto nomem;
         memcpy(kx_base, K->x, (size_t)Kp[nfree] * sizeof *kx_base);
         for (int32_t j = 0; j < nfree; j++) {
@@ -742,24 +765,60 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
             }
         }
         /* The matrix is the base plus wc on the diagonal of the vertices
-         * with a valid closest point: when the weight and that set are the
-         * previous phase's, so is the matrix, bit for bit, and so its factor
-         * (the later phases at the final weight once the fit has settled). */
-        if (phase == 0 || wc != wc_prev || memcmp(valid, valid_prev, (size_t)nv) != 0) {
-            snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
-            st = dtx__chol_factorize_again(K, &R, DTX__CHOL_NO_TEAMS, system,
-                                           "; are the markers spread over the whole mesh?", L,
-                                           &cc, err);
-            if (st != DTX_OK)
-                goto fail;
-            (*factorizations)++;
-            wc_prev = wc;
-            memcpy(valid_prev, valid, (size_t)nv);
+         * with a valid closest point: when the weight and that set are those
+         * of the factored matrix, so is the matrix, bit for bit, and so its
+         * factor (the later phases at the final weight once the fit has
+         * settled).  When only a few vertices gained or lost their closest
+         * point, the factor still serves: the matrix differs from the
+         * factored one by those vertices' diagonal entries, a low-rank
+         * change (the changed matrix is positive definite like every
+         * phase's: phase 0's, factored, plus a nonnegative diagonal). */
+        {
+            int refactor = phase == 0 || wc != wc_prev, lowrank = 0;
+            int32_t k = 0;
+            for (int32_t v = 0; v < nv && !refactor; v++)
+                if (valid[v] != valid_prev[v]) {
+                    int32_t fv = freeidx[v];
+                    double c = Kx[diagpos[fv]] - diag_fact[fv];
+                    if (c == 0.0)
+                        continue;
+                    if (k == LOWRANK_MAX_K)
+                        refactor = 1;
+                    else {
+                        lr_idx[k] = fv;
+                        lr_c[k++] = c;
+                    }
+                }
+            if (!refactor && k > 0) {
+                int steps;
+                dtx_status lst = dtx__chol_lowrank_set(L, k, lr_idx, lr_c, &lr, &cc, NULL);
+                if (lst == DTX_OK)
+                    lst = dtx__chol_lowrank_solve(&lr, L, K, B, LOWRANK_STEPS, LOWRANK_TOL, &Xs,
+                                                  &steps, &cc, NULL);
+                dtx__chol_lowrank_free(&lr, &cc);
+                if (lst == DTX_ENOMEM)
+                    goto nomem;
+                lowrank = lst == DTX_OK;
+                refactor = !lowrank;
+            }
+            if (refactor) {
+                snprintf(system, sizeof system, "the correspondence system of phase %d", phase);
+                st = dtx__chol_factorize_again(K, &R, DTX__CHOL_NO_TEAMS, system,
+                                               "; are the markers spread over the whole mesh?",
+                                               L, &cc, err);
+                if (st != DTX_OK)
+                    goto fail;
+                (*factorizations)++;
+                wc_prev = wc;
+                memcpy(valid_prev, valid, (size_t)nv);
+                for (int32_t j = 0; j < nfree; j++)
+                    diag_fact[j] = Kx[diagpos[j]];
+            }
+            if (!lowrank) {
+                if (!cholmod_solve2(CHOLMOD_A, L, B, NULL, &Xs, NULL, &Ys, &Es, &cc))
+                    goto nomem;
+            }
         }
-        cholmod_free_dense(&Xs, &cc);
-        Xs = cholmod_solve(CHOLMOD_A, L, B, &cc);
-        if (!Xs)
-            goto nomem;
         (*solves)++;
         if (valid_out)
             memcpy(valid_out, valid, (size_t)nv);
@@ -776,7 +835,10 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
 nomem:
     st = dtx_seterr(err, DTX_ENOMEM, "out of memory in the correspondence phase");
 fail:
+    dtx__chol_lowrank_free(&lr, &cc);
     cholmod_free_dense(&Xs, &cc);
+    cholmod_free_dense(&Ys, &cc);
+    cholmod_free_dense(&Es, &cc);
     cholmod_free_dense(&B, &cc);
     dtx__chol_refactor_free(&R, &cc);
     cholmod_free_factor(&L, &cc);
@@ -791,6 +853,9 @@ fail:
     free(hit);
     free(kx_base);
     free(diagpos);
+    free(diag_fact);
+    free(lr_idx);
+    free(lr_c);
     return st;
 }
 

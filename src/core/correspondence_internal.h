@@ -76,7 +76,10 @@ int32_t dtx__closest_valid(const dtx_bvh *tbvh, const double *tnormals, const do
  * NULL): each vertex's last closest valid primitive of tbvh (-1: none in
  * any phase), a search hint for dtx__fit_rms_from; *solves counts the
  * solves and *factorizations the numeric factorisations (a phase whose
- * matrix equals the previous phase's reuses its factor). */
+ * matrix equals the factored one reuses its factor; one that differs from
+ * it by at most 200 diagonal entries, vertices that gained or lost their
+ * closest point at the same weight, is solved from it by a low-rank
+ * correction, see correspondence.c). */
 dtx_status dtx__deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const double *S0,
                             const int32_t *fixv, const double *fixpos, int32_t nfix,
                             dtx__tet_maker make_tets, void *tets_ctx, const dtx_bvh *tbvh,

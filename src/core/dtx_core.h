@@ -167,8 +167,10 @@ typedef struct {
                               multicomponent: orphan target triangles (in no pair) */
     int solves;            /* linear solves done */
     int factorizations;    /* numeric factorisations done: a phase whose matrix
-                              is the previous phase's (same weight, same set of
-                              valid closest points) reuses its factor */
+                              is the factored one (same weight, same set of
+                              valid closest points) reuses its factor, and so
+                              does one where at most 200 vertices gained or
+                              lost their closest point (low-rank correction) */
     double fit_rms;        /* RMS distance (fraction of target diagonal) of the
                               deformed source vertices to the target surface */
 } dtx_corr;

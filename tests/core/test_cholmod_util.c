@@ -266,6 +266,161 @@ static void error_mapping(void)
     cholmod_finish(&cc);
 }
 
+/* The diagonal position of column j in A (sorted lower triangle). */
+static double *diag_of(cholmod_sparse *A, int j)
+{
+    return (double *)A->x + ((int *)A->p)[j];
+}
+
+/* max |a - b| and max |b| over n entries. */
+static void max_diff(const double *a, const double *b, size_t n, double *d, double *bmax)
+{
+    *d = 0.0;
+    *bmax = 0.0;
+    for (size_t q = 0; q < n; q++) {
+        double e = fabs(a[q] - b[q]);
+        *d = e > *d || e != e ? e : *d;
+        *bmax = fabs(b[q]) > *bmax ? fabs(b[q]) : *bmax;
+    }
+}
+
+/* The low-rank solve from A's factor against a fresh factorisation of A'
+ * = A plus updates (+w on rows that had nothing added) and downdates (-w
+ * on rows that had +w: the correspondence's vertices that lose their
+ * closest point, where S subtracts nearly equal terms), w large against
+ * A's diagonal; supernodal L L' and simplicial L D L'.  Then the
+ * refinement against A' reaches a direct solve's backward error, and bad
+ * changes, an unreachable tolerance and too few steps are reported. */
+static void lowrank_vs_fresh(void)
+{
+    enum { M = 10, N = M * M * M, NUP = 6, NDOWN = 6, NRHS = 3 };
+    const double w = 5000.0;
+    for (int super = 1; super >= 0; super--) {
+        cholmod_common cc;
+        cholmod_sparse *A, *A2;
+        cholmod_factor *L = NULL, *L2 = NULL;
+        cholmod_dense *B, *Xref = NULL, *X = NULL;
+        dtx__chol_lowrank lr;
+        dtx_error err;
+        int32_t idx[NUP + NDOWN];
+        double c[NUP + NDOWN], d, xmax;
+        int steps = -1;
+        memset(&err, 0, sizeof err);
+        memset(&lr, 0, sizeof lr);
+        dtx__chol_start(&cc, super ? DTX__CHOL_AUTO : DTX__CHOL_SIMPLICIAL, DTX__CHOL_ORDER_AMD);
+        if (super)
+            cc.supernodal = CHOLMOD_SUPERNODAL;
+        A = grid3(M, 7.0, 0.3, &cc);
+        A2 = grid3(M, 7.0, 0.3, &cc);
+        B = cholmod_zeros(N, NRHS, CHOLMOD_REAL, &cc);
+        CHECK(A && A2 && B);
+        if (!A || !A2 || !B)
+            return;
+        for (int q = 0; q < N * NRHS; q++)
+            ((double *)B->x)[q] = cos(0.7 * q) + 0.5;
+        /* A: +w on the rows to be downdated; A2 (= A'): +w on the others. */
+        for (int a = 0; a < NUP + NDOWN; a++) {
+            int row = (int)((a * 7919L + 13) % N);
+            double before;
+            idx[a] = row;
+            if (a < NDOWN)
+                *diag_of(A, row) += w;
+            else
+                *diag_of(A2, row) += w;
+            before = *diag_of(A, row);
+            c[a] = *diag_of(A2, row) - before;
+        }
+        CHECK_EQ_INT(dtx__chol_analyze_factorize(A, DTX__CHOL_NO_TEAMS, "A", NULL, &L, &cc, &err),
+                     DTX_OK);
+        CHECK_EQ_INT(dtx__chol_analyze_factorize(A2, DTX__CHOL_NO_TEAMS, "A'", NULL, &L2, &cc,
+                                                 &err),
+                     DTX_OK);
+        if (!L || !L2)
+            return;
+        CHECK_EQ_INT(L->is_super, super);
+        Xref = cholmod_solve(CHOLMOD_A, L2, B, &cc);
+        CHECK(Xref != NULL);
+
+        /* The Woodbury solve alone (no refinement asked). */
+        CHECK_OK(dtx__chol_lowrank_set(L, NUP + NDOWN, idx, c, &lr, &cc, &err), &err);
+        CHECK_OK(dtx__chol_lowrank_solve(&lr, L, A2, B, 0, 1.0, &X, &steps, &cc, &err), &err);
+        CHECK_EQ_INT(steps, 0);
+        max_diff(X->x, Xref->x, (size_t)N * NRHS, &d, &xmax);
+        CHECK_DBL(xmax, >, 0.01);
+        CHECK_DBL(d, <=, 1e-12 * xmax);
+        /* With refinement to a direct solve's backward error. */
+        CHECK_OK(dtx__chol_lowrank_solve(&lr, L, A2, B, 3, 1e-15, &X, &steps, &cc, &err), &err);
+        CHECK_INT(steps, <=, 3);
+        CHECK_DBL(lr.eta, <=, 1e-15);
+        max_diff(X->x, Xref->x, (size_t)N * NRHS, &d, &xmax);
+        CHECK_DBL(d, <=, 1e-13 * xmax);
+        /* A tolerance no solve reaches, without steps: said, not hidden. */
+        CHECK_EQ_INT(dtx__chol_lowrank_solve(&lr, L, A2, B, 0, 0.0, &X, &steps, &cc, &err),
+                     DTX_ESOLVE);
+        CHECK(strstr(err.msg, "backward error") != NULL);
+        /* The old factor alone is not the answer: the changes matter. */
+        {
+            cholmod_dense *X0 = cholmod_solve(CHOLMOD_A, L, B, &cc);
+            max_diff(X0->x, Xref->x, (size_t)N * NRHS, &d, &xmax);
+            CHECK_DBL(d, >, 1e-6 * xmax);
+            cholmod_free_dense(&X0, &cc);
+        }
+        /* Bad changes. */
+        idx[0] = N;
+        CHECK_EQ_INT(dtx__chol_lowrank_set(L, NUP + NDOWN, idx, c, &lr, &cc, &err), DTX_EINVAL);
+        CHECK(lr.k == 0 && lr.wp == NULL);
+        idx[0] = 0;
+        c[0] = 0.0;
+        CHECK_EQ_INT(dtx__chol_lowrank_set(L, 1, idx, c, &lr, &cc, &err), DTX_EINVAL);
+        c[0] = NAN;
+        CHECK_EQ_INT(dtx__chol_lowrank_set(L, 1, idx, c, &lr, &cc, &err), DTX_EINVAL);
+
+        dtx__chol_lowrank_free(&lr, &cc);
+        cholmod_free_dense(&X, &cc);
+        cholmod_free_dense(&Xref, &cc);
+        cholmod_free_dense(&B, &cc);
+        cholmod_free_factor(&L2, &cc);
+        cholmod_free_factor(&L, &cc);
+        cholmod_free_sparse(&A2, &cc);
+        cholmod_free_sparse(&A, &cc);
+        cholmod_finish(&cc);
+    }
+}
+
+/* A change that makes A' singular: A = I (n = 1..), c = -1 on a row. */
+static void lowrank_singular(void)
+{
+    cholmod_common cc;
+    cholmod_sparse *A;
+    cholmod_factor *L = NULL;
+    dtx__chol_lowrank lr;
+    dtx_error err;
+    int32_t idx[1] = {2};
+    double c[1];
+    memset(&err, 0, sizeof err);
+    memset(&lr, 0, sizeof lr);
+    dtx__chol_start(&cc, DTX__CHOL_SIMPLICIAL, DTX__CHOL_ORDER_AMD);
+    A = tridiag(5, 4.0, &cc);
+    CHECK(A != NULL);
+    if (!A)
+        return;
+    /* Make row 2 decoupled (its off-diagonals zero) so that -4 on its
+     * diagonal zeroes the whole row: A' singular, S = 1/c + 1/4 = 0. */
+    ((double *)A->x)[((int *)A->p)[1] + 1] = 0.0;
+    ((double *)A->x)[((int *)A->p)[2] + 1] = 0.0;
+    c[0] = -4.0;
+    CHECK_EQ_INT(dtx__chol_analyze_factorize(A, DTX__CHOL_NO_TEAMS, "A", NULL, &L, &cc, &err),
+                 DTX_OK);
+    if (L) {
+        CHECK_EQ_INT(dtx__chol_lowrank_set(L, 1, idx, c, &lr, &cc, &err), DTX_ESOLVE);
+        CHECK(strstr(err.msg, "singular") != NULL);
+    }
+    dtx__chol_lowrank_free(&lr, &cc);
+    cholmod_free_factor(&L, &cc);
+    cholmod_free_sparse(&A, &cc);
+    cholmod_finish(&cc);
+}
+
 int main(void)
 {
     settings();
@@ -273,5 +428,7 @@ int main(void)
     refactor_same_bits();
     not_positive_definite();
     error_mapping();
+    lowrank_vs_fresh();
+    lowrank_singular();
     return check_report();
 }
