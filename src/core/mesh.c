@@ -166,19 +166,31 @@ void dtx_face_normals(const double *X, const int32_t *F, int32_t nf, double *N)
 void dtx_vertex_normals(const double *X, int32_t nv, const int32_t *F, int32_t nf, double *N)
 {
     memset(N, 0, (size_t)nv * 3 * sizeof *N);
+    double cmax = 0; /* the largest face's |cross product| (twice its area) */
     for (int32_t f = 0; f < nf; f++) {
         double c[3];
         face_cross(X, F + 3 * f, c);
+        double l = c[0] * c[0] + c[1] * c[1] + c[2] * c[2];
+        if (l > cmax)
+            cmax = l;
         for (int j = 0; j < 3; j++)
             for (int k = 0; k < 3; k++)
                 N[3 * F[3 * f + j] + k] += c[k];
     }
+    /* A sum of face normals that cancels leaves rounding noise (a few
+     * machine epsilons of its faces' size), whose direction is chance:
+     * normalising it would give a unit normal that one more rounding
+     * turns into another, or into none.  A sum under DTX_NORMAL_NOISE
+     * of the largest face's is taken as no normal (zero). */
+    double floor = DTX_NORMAL_NOISE * sqrt(cmax);
     for (int32_t i = 0; i < nv; i++) {
         double *n = N + 3 * i;
         double len = sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2]);
-        if (len > 0)
+        if (len > floor && len > 0)
             for (int k = 0; k < 3; k++)
                 n[k] /= len;
+        else
+            n[0] = n[1] = n[2] = 0;
     }
 }
 

@@ -115,7 +115,11 @@ double dtx_mesh_mean_edge(const dtx_mesh *m);
  * positions X (nv x 3).  Zero-area faces get a zero normal. */
 void dtx_face_normals(const double *X, const int32_t *F, int32_t nf, double *N);
 
-/* Area-weighted unit vertex normals N (nv x 3, caller-allocated). */
+/* Area-weighted unit vertex normals N (nv x 3, caller-allocated).  A vertex
+ * whose faces' normals cancel (their sum under DTX_NORMAL_NOISE of the
+ * mesh's largest face's cross product: rounding noise, no direction) and a
+ * vertex without faces get a zero normal. */
+#define DTX_NORMAL_NOISE 1e-12
 void dtx_vertex_normals(const double *X, int32_t nv, const int32_t *F, int32_t nf,
                         double *N);
 

@@ -3,7 +3,8 @@
  * valid mesh can still hold: components, vertices in no face, zero-area and
  * needle triangles, duplicate positions, non-manifold edges, duplicate
  * faces), dtx_mesh_validate's rejections, and the marker checks
- * (dtx_markers_validate, dtx_markers_check_referenced).
+ * (dtx_markers_validate, dtx_markers_check_referenced); dtx_vertex_normals
+ * where a vertex's face normals cancel.
  */
 #include "check.h"
 #include "meshgen.h"
@@ -291,6 +292,35 @@ static void test_markers(void)
     dtx_markers_free(&mk);
 }
 
+/* Two triangles meeting at vertex 0 with opposite normals of the same size
+ * in exact arithmetic: 0.7 * 0.1 and 0.07 * 1 round apart, so the sum at
+ * vertex 0 is 1.4e-17 along z, noise with no direction.  It must give no
+ * normal (zero), not a unit normal pointing by chance; the other vertices
+ * keep their faces' unit normals. */
+static void test_vertex_normals_cancel(void)
+{
+    const double V[] = {0, 0, 0, 0.7, 0, 0, 0, 0.1, 0, -0.07, 0, 0, 0, -1.0, 0};
+    const int32_t F[] = {0, 1, 2, 0, 4, 3};
+    double N[15];
+    /* The premise: the sum really is nonzero noise. */
+    volatile double a = 0.7, b = 0.1, c = 0.07;
+    CHECK(a * b - c != 0);
+    dtx_vertex_normals(V, 5, F, 2, N);
+    for (int k = 0; k < 3; k++)
+        CHECK(N[k] == 0);
+    CHECK_NEAR(N[3 * 1 + 2], 1.0, 1e-15);
+    CHECK_NEAR(N[3 * 2 + 2], 1.0, 1e-15);
+    CHECK_NEAR(N[3 * 3 + 2], -1.0, 1e-15);
+    CHECK_NEAR(N[3 * 4 + 2], -1.0, 1e-15);
+    /* A real normal far smaller than the threshold's absolute value still
+     * counts: the floor is relative to the mesh's largest face. */
+    const double W[] = {0, 0, 0, 1e-9, 0, 0, 0, 1e-9, 0};
+    const int32_t G[] = {0, 1, 2};
+    dtx_vertex_normals(W, 3, G, 1, N);
+    for (int i = 0; i < 3; i++)
+        CHECK_NEAR(N[3 * i + 2], 1.0, 1e-15);
+}
+
 int main(void)
 {
     test_clean();
@@ -299,5 +329,6 @@ int main(void)
     test_duplicates_and_nonmanifold();
     test_validate();
     test_markers();
+    test_vertex_normals_cancel();
     return check_report();
 }
