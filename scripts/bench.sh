@@ -84,6 +84,10 @@ end_to_end() {
             "$(summary "$s" "1e3/d['frames_per_second']")" \
             "$(summary "$s" "d['peak_rss_mb']")" "$(summary "$s" "d['seconds']")"
     done
+    # Where each rank's time went at 2 ranks (a rank waiting for the other,
+    # or fixed work every rank repeats, shows here).
+    summary "$work/$name-2x1.summary.json" \
+        "'\\n'.join('  2x1 rank %d: ' % q + ', '.join('%s %.3f' % kv for kv in p.items()) for q, p in enumerate(d['seconds_per_rank']))"
     f1=$(summary "$work/$name-1x1.summary.json" "d['frames_per_second']")
     f2=$(summary "$work/$name-2x1.summary.json" "d['frames_per_second']")
     f3=$(summary "$work/$name-1x2.summary.json" "d['frames_per_second']")
