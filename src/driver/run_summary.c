@@ -225,6 +225,16 @@ static void json_stats(FILE *f, const run_stats *s)
             var > 0 ? sqrt(var) : 0.0, s->frames ? s->min : 0.0, s->frames ? s->max : 0.0);
 }
 
+/* CPU seconds of this process so far (user + system, every thread). */
+static double cpu_seconds(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
+           (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec;
+}
+
 /* Peak resident memory of this process, MiB. */
 static double peak_rss_mb(void)
 {
@@ -249,6 +259,7 @@ static const struct {
     {"finish", offsetof(phase_times, finish)},
     {"wait", offsetof(phase_times, wait)},
     {"total", offsetof(phase_times, total)},
+    {"cpu", offsetof(phase_times, cpu)},
 };
 enum { NPHASES = sizeof phase_keys / sizeof phase_keys[0] };
 
@@ -348,6 +359,7 @@ void run_summarise(run_state *r)
         tm_all = calloc((size_t)r->nranks * NPHASES, sizeof *tm_all);
         tms = calloc((size_t)r->nranks, sizeof *tms);
     }
+    r->tm.cpu = cpu_seconds();
     for (int i = 0; i < NPHASES; i++)
         tm_mine[i] = phase_of(&r->tm, i);
     MPI_Gather(&mine, 1, MPI_DOUBLE, rss, 1, MPI_DOUBLE, 0, r->comm);

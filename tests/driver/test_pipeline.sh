@@ -52,7 +52,7 @@ import json, sys
 d = json.load(open(sys.argv[1]))
 n = int(sys.argv[2])
 keys = ["read", "keypoints", "correspondence", "factor", "output", "transfer", "write",
-        "finish", "wait", "total"]
+        "finish", "wait", "total", "cpu"]
 per = d.get("seconds_per_rank")
 bad = []
 if not isinstance(per, list) or len(per) != n:
@@ -63,7 +63,7 @@ else:
             bad.append("rank %d: keys %s" % (q, sorted(p)))
         elif not all(isinstance(p[k], (int, float)) and p[k] >= 0 for k in keys):
             bad.append("rank %d: %r" % (q, p))
-        elif not p["total"] > 0 or not p["transfer"] > 0:
+        elif not p["total"] > 0 or not p["transfer"] > 0 or not p["cpu"] > 0:
             bad.append("rank %d: no total or transfer time: %r" % (q, p))
     if per[0] != d["seconds"]:
         bad.append("rank 0 %r is not seconds %r" % (per[0], d["seconds"]))
@@ -74,7 +74,7 @@ PY
 check "summary: each of 2 ranks' phases" phases_per_rank "$W/np2.h5.summary.json" 2
 check "summary: each of 3 ranks' phases" phases_per_rank "$W/np3.h5.summary.json" 3
 check "summary: 1 rank, its phases" phases_per_rank "$W/np1.h5.summary.json" 1
-check "stderr: a line per rank" bash -c "grep -q '^dtx: rank 0 (s): read .*, wait .*, total' '$W/np2.log' &&
+check "stderr: a line per rank" bash -c "grep -q '^dtx: rank 0 (s): read .*, wait .*, total .*, cpu' '$W/np2.log' &&
     grep -q '^dtx: rank 1 (s): read' '$W/np2.log' && ! grep -q '^dtx: rank 2 (s)' '$W/np2.log'"
 check "no temporary file left" test -z "$(ls "$W" | grep '\.tmp' || true)"
 
