@@ -6,9 +6,9 @@
 #include "run_internal.h"
 
 #include <ctype.h>
-#include <stddef.h>
 #include <errno.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -276,8 +276,8 @@ static void json_phases(FILE *f, const phase_times *tm)
     fputc('}', f);
 }
 
-static void write_summary(run_state *r, const char *path, const run_stats *all,
-                          const double *rss, const phase_times *tms)
+static void write_summary(run_state *r, const char *path, const run_stats *all, const double *rss,
+                          const phase_times *tms)
 {
     static const char *const mode_name[] = {"fresh", "resumed", "already complete"};
     char tmp[4300];
@@ -396,8 +396,7 @@ void run_summarise(run_state *r)
                 r->tm.total > 0 ? (double)all.frames / r->tm.total : 0.0, r->nranks, r->nthreads,
                 r->frames_skipped ? " (frames done before were kept)" : "", r->tm.read, kp_time,
                 r->tm.correspond, r->tm.factor, r->tm.output, r->tm.transfer, r->tm.write,
-                r->tm.finish, mean_of(&all),
-                r->job.output_file);
+                r->tm.finish, mean_of(&all), r->job.output_file);
     /* With several ranks, how each spent the run (the line above is rank
      * 0's), so that a rank waiting for another shows. */
     if (r->mode != OUT_DONE && r->nranks > 1)
@@ -405,8 +404,8 @@ void run_summarise(run_state *r)
             char line[600];
             size_t len = 0;
             for (int i = 0; i < NPHASES && len < sizeof line; i++)
-                len += (size_t)snprintf(line + len, sizeof line - len, "%s %s %.3f",
-                                        i ? "," : "", phase_keys[i].name, phase_of(&tms[q], i));
+                len += (size_t)snprintf(line + len, sizeof line - len, "%s %s %.3f", i ? "," : "",
+                                        phase_keys[i].name, phase_of(&tms[q], i));
             run_say(r, "dtx: rank %d (s):%s", q, line);
         }
     free(rss);
