@@ -8,8 +8,9 @@
 #   2. End to end, HDF5 -> HDF5 with `dtx run`, cat -> lion: an NFRAMES-frame
 #      sequence made by blending the 9 cat poses, at 1 rank x 1 thread,
 #      2 ranks x 1 thread and 1 rank x 2 threads: frames/s, parallel
-#      efficiency, peak memory per rank, and time per frame over the bare
-#      back-substitution of step 1.
+#      efficiency, peak memory per rank, time per frame over the bare
+#      back-substitution of step 1, and each rank's phases at 2 ranks (the
+#      summary's seconds_per_rank: where one waits, or repeats fixed work).
 #   3. Memory: the same job on 200 frames, peak memory against NFRAMES.
 #   4. Horse gallop -> camel (22k-vertex target) when the shared data is there
 #      (DTX_SHARED_DATA, default ../shared/data next to the repository).
@@ -84,6 +85,10 @@ end_to_end() {
             "$(summary "$s" "1e3/d['frames_per_second']")" \
             "$(summary "$s" "d['peak_rss_mb']")" "$(summary "$s" "d['seconds']")"
     done
+    # Where each rank's time went at 2 ranks (a rank waiting for the other,
+    # or fixed work every rank repeats, shows here).
+    summary "$work/$name-2x1.summary.json" \
+        "'\\n'.join('  2x1 rank %d: ' % q + ', '.join('%s %.3f' % kv for kv in p.items()) for q, p in enumerate(d['seconds_per_rank']))"
     f1=$(summary "$work/$name-1x1.summary.json" "d['frames_per_second']")
     f2=$(summary "$work/$name-2x1.summary.json" "d['frames_per_second']")
     f3=$(summary "$work/$name-1x2.summary.json" "d['frames_per_second']")

@@ -124,7 +124,7 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
 {
     run_state r;
     dtx_status st;
-    double t_start = run_wtime();
+    double t_start = run_wtime(), t_phase;
     int out_started = 0;
 
     memset(&r, 0, sizeof r);
@@ -172,8 +172,10 @@ dtx_status dtx_run_job(const char *job_path, MPI_Comm comm, const dtx_run_opts *
             goto fail;
         /* 5. The output, created or reopened, and the frames still to do. */
         out_started = 1;
+        t_phase = run_wtime();
         if ((st = run_open_output(&r, err)) != DTX_OK || (st = run_count_todo(&r, err)) != DTX_OK)
             goto fail;
+        r.tm.output = run_wtime() - t_phase;
         /* 6. The frame loop. */
         if (r.rank == 0 && !opts->quiet) {
             if (r.frames_skipped)

@@ -57,6 +57,17 @@ typedef struct {
     double *gnorm;         /* methods that report it: block final gradient norms */
 } frame_buffers;
 
+/* run_agree, its time counted as the rank's wait (phase_times.wait): in the
+ * frame loop a rank reaches an agreement early when its share was smaller
+ * or faster than another's. */
+static dtx_status agree_timed(run_state *r, dtx_status st, dtx_error *err)
+{
+    double t0 = run_wtime();
+    st = run_agree(r->comm, st, err);
+    r->tm.wait += run_wtime() - t0;
+    return st;
+}
+
 static void progress_step(run_state *r, int64_t n)
 {
     int64_t sum = 0;
@@ -85,9 +96,12 @@ typedef struct {
 static dtx_status block_agree_wait(run_state *r, block_agree *ba, dtx_status st,
                                    dtx_error *err)
 {
+    double t0;
     if (!ba->pending)
         return st;
+    t0 = run_wtime();
     MPI_Wait(&ba->req, MPI_STATUS_IGNORE);
+    r->tm.wait += run_wtime() - t0;
     ba->pending = 0;
     if (ba->sum[0] > 0)
         return run_agree(r->comm, st, err);
@@ -383,7 +397,7 @@ static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_bu
     int64_t ready = 0; /* blocks read, published by the main thread */
     int abort_all = 0; /* the main thread stopped: the others stop too */
     block_agree ba;
-    double t0 = run_wtime(), s_rd = 0, s_wr = 0;
+    double t0 = run_wtime(), s_rd = 0, s_wr = 0, wait0 = r->tm.wait;
     dtx_status st;
     memset(&ba, 0, sizeof ba);
     st = next && finished ? r->method->team_prepare(plan, err)
@@ -491,7 +505,7 @@ static dtx_status transfer_team(run_state *r, int t, int s, void *plan, frame_bu
      * I/O). */
     r->tm.read += s_rd;
     r->tm.write += s_wr;
-    r->tm.transfer += run_wtime() - t0 - s_rd - s_wr;
+    r->tm.transfer += run_wtime() - t0 - s_rd - s_wr - (r->tm.wait - wait0);
     st = block_agree_wait(r, &ba, st, err);
     free(next);
     free(finished);
@@ -582,7 +596,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
         if (st == DTX_OK)
             st = check_block(r, rc, tc, sc, f0, n, fb->Xs, fb->res, fb->info, fb->fstats, fb->gnorm,
                              err);
-        if (coll && (st = run_agree(r->comm, st, err)) != DTX_OK)
+        if (coll && (st = agree_timed(r, st, err)) != DTX_OK)
             goto done;
         if (st == DTX_OK)
             st = write_block(r, rc, tc, sc, f0, n, fb, coll, err);
@@ -590,7 +604,7 @@ static dtx_status transfer_result(run_state *r, int t, int s, void *plan, frame_
         r->tm.transfer += t2 - t1;
         r->tm.write += run_wtime() - t2;
         if (coll) {
-            if ((st = run_agree(r->comm, st, err)) != DTX_OK)
+            if ((st = agree_timed(r, st, err)) != DTX_OK)
                 goto done;
             progress_step(r, n);
         } else {
@@ -740,7 +754,7 @@ dtx_status run_transfer_all(run_state *r, dtx_error *err)
         if (st != DTX_OK)
             dtx_error_prefix(err, "target \"%s\" (%s:%s)", tj->name, tj->file, tj->mesh);
         r->tm.factor += run_wtime() - t0;
-        if ((st = run_agree(r->comm, st, err)) != DTX_OK) {
+        if ((st = agree_timed(r, st, err)) != DTX_OK) {
             r->method->plan_free(&plan);
             goto done;
         }

@@ -37,8 +37,16 @@
  * single-threaded because threads come from OpenMP and ranks. */
 extern void openblas_set_num_threads(int n) __attribute__((weak));
 
+/* Seconds of a rank's phases (wall clock).  output: the output created or
+ * reopened and its frames still to do counted; write: the frame loop's
+ * writes; finish: results marked complete, the file closed and renamed;
+ * wait: the frame loop waiting for other ranks (block agreements, the
+ * agreement after the factorisation); cpu sets them against the CPU time
+ * the rank got (on a shared machine, a wall time well above it).  Gathered from every rank into the
+ * summary's seconds_per_rank (run_summary.c). */
 typedef struct {
-    double read, keypoints, correspond, factor, transfer, write, total;
+    double read, keypoints, correspond, factor, output, transfer, write, finish, wait, total;
+    double cpu; /* the process's CPU seconds (user + system, every thread) at the summary */
 } phase_times;
 
 /* Residual statistics of the frames transferred by this run. */

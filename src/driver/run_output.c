@@ -540,6 +540,6 @@ dtx_status run_finish_output(run_state *r, dtx_error *err)
             fprintf(stderr, "dtx: warning: %s is in place; the output it replaced is left as %s "
                     "and could not be removed: remove it\n", r->job.output_file, r->partial);
     }
-    r->tm.write += run_wtime() - t0;
+    r->tm.finish += run_wtime() - t0;
     return run_agree(r->comm, st, err);
 }

@@ -8,6 +8,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -224,6 +225,16 @@ static void json_stats(FILE *f, const run_stats *s)
             var > 0 ? sqrt(var) : 0.0, s->frames ? s->min : 0.0, s->frames ? s->max : 0.0);
 }
 
+/* CPU seconds of this process so far (user + system, every thread). */
+static double cpu_seconds(void)
+{
+    struct rusage ru;
+    if (getrusage(RUSAGE_SELF, &ru) != 0)
+        return 0;
+    return (double)ru.ru_utime.tv_sec + 1e-6 * (double)ru.ru_utime.tv_usec +
+           (double)ru.ru_stime.tv_sec + 1e-6 * (double)ru.ru_stime.tv_usec;
+}
+
 /* Peak resident memory of this process, MiB. */
 static double peak_rss_mb(void)
 {
@@ -233,8 +244,40 @@ static double peak_rss_mb(void)
     return (double)ru.ru_maxrss / 1024.0; /* Linux: kilobytes */
 }
 
-static void write_summary(run_state *r, const char *path, const run_stats *all,
-                          const double *rss)
+/* The phases of phase_times by their names in the summary, in its order. */
+static const struct {
+    const char *name;
+    size_t off;
+} phase_keys[] = {
+    {"read", offsetof(phase_times, read)},
+    {"keypoints", offsetof(phase_times, keypoints)},
+    {"correspondence", offsetof(phase_times, correspond)},
+    {"factor", offsetof(phase_times, factor)},
+    {"output", offsetof(phase_times, output)},
+    {"transfer", offsetof(phase_times, transfer)},
+    {"write", offsetof(phase_times, write)},
+    {"finish", offsetof(phase_times, finish)},
+    {"wait", offsetof(phase_times, wait)},
+    {"total", offsetof(phase_times, total)},
+    {"cpu", offsetof(phase_times, cpu)},
+};
+enum { NPHASES = sizeof phase_keys / sizeof phase_keys[0] };
+
+static double phase_of(const phase_times *tm, int i)
+{
+    return *(const double *)((const char *)tm + phase_keys[i].off);
+}
+
+/* {"read": s, ..., "total": s} of one rank's phases. */
+static void json_phases(FILE *f, const phase_times *tm)
+{
+    for (int i = 0; i < NPHASES; i++)
+        fprintf(f, "%s\"%s\": %.6f", i ? ", " : "{", phase_keys[i].name, phase_of(tm, i));
+    fputc('}', f);
+}
+
+static void write_summary(run_state *r, const char *path, const run_stats *all, const double *rss,
+                          const phase_times *tms)
 {
     static const char *const mode_name[] = {"fresh", "resumed", "already complete"};
     char tmp[4300];
@@ -254,14 +297,18 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
     json_str(f, r->job.output_file);
     fprintf(f,
             ",\n  \"mode\": \"%s\",\n  \"ranks\": %d,\n  \"threads_per_rank\": %d,\n"
-            "  \"frames\": %lld,\n  \"frames_skipped\": %lld,\n"
-            "  \"seconds\": {\"read\": %.6f, \"keypoints\": %.6f, \"correspondence\": %.6f, "
-            "\"factor\": %.6f, \"transfer\": %.6f, \"write\": %.6f, \"total\": %.6f},\n"
-            "  \"frames_per_second\": %.3f,\n  \"residual\": ",
+            "  \"frames\": %lld,\n  \"frames_skipped\": %lld,\n  \"seconds\": ",
             mode_name[r->mode], r->nranks, r->nthreads, (long long)all->frames,
-            (long long)r->frames_skipped, r->tm.read, r->tm.keypoints, r->tm.correspond,
-            r->tm.factor,
-            r->tm.transfer, r->tm.write, r->tm.total,
+            (long long)r->frames_skipped);
+    json_phases(f, &r->tm);
+    /* Every rank's phases: where one rank waits for another, or does
+     * work the others do not. */
+    fprintf(f, ",\n  \"seconds_per_rank\": [");
+    for (int q = 0; q < r->nranks; q++) {
+        fprintf(f, "%s\n    ", q ? "," : "");
+        json_phases(f, &tms[q]);
+    }
+    fprintf(f, "\n  ],\n  \"frames_per_second\": %.3f,\n  \"residual\": ",
             r->tm.total > 0 ? (double)all->frames / r->tm.total : 0.0);
     json_stats(f, all);
     fprintf(f, ",\n  \"peak_rss_mb\": %.1f,\n  \"peak_rss_mb_per_rank\": [", rss_max);
@@ -302,17 +349,30 @@ static void write_summary(run_state *r, const char *path, const run_stats *all,
 void run_summarise(run_state *r)
 {
     run_stats all;
-    double mine = peak_rss_mb(), *rss = NULL;
+    double mine = peak_rss_mb(), *rss = NULL, tm_mine[NPHASES], *tm_all = NULL;
+    phase_times *tms = NULL;
     char kp_time[64] = "";
     run_stats_init(&all);
     stats_reduce(r->comm, &r->stats, &all);
-    if (r->rank == 0)
+    if (r->rank == 0) {
         rss = calloc((size_t)r->nranks, sizeof *rss);
+        tm_all = calloc((size_t)r->nranks * NPHASES, sizeof *tm_all);
+        tms = calloc((size_t)r->nranks, sizeof *tms);
+    }
+    r->tm.cpu = cpu_seconds();
+    for (int i = 0; i < NPHASES; i++)
+        tm_mine[i] = phase_of(&r->tm, i);
     MPI_Gather(&mine, 1, MPI_DOUBLE, rss, 1, MPI_DOUBLE, 0, r->comm);
-    if (r->rank != 0 || !rss) {
+    MPI_Gather(tm_mine, NPHASES, MPI_DOUBLE, tm_all, NPHASES, MPI_DOUBLE, 0, r->comm);
+    if (r->rank != 0 || !rss || !tm_all || !tms) {
         free(rss);
+        free(tm_all);
+        free(tms);
         return;
     }
+    for (int q = 0; q < r->nranks; q++)
+        for (int i = 0; i < NPHASES; i++)
+            *(double *)((char *)&tms[q] + phase_keys[i].off) = tm_all[(size_t)q * NPHASES + i];
     /* A run that found nothing to do keeps the summary of the run that did
      * the work, unless a summary file was asked for. */
     if (r->mode != OUT_DONE || r->opts->summary_path) {
@@ -321,7 +381,7 @@ void run_summarise(run_state *r)
             snprintf(sp, sizeof sp, "%s", r->opts->summary_path);
         else
             snprintf(sp, sizeof sp, "%s.summary.json", r->job.output_file);
-        write_summary(r, sp, &all, rss);
+        write_summary(r, sp, &all, rss, tms);
     }
     if (r->tm.keypoints > 0)
         snprintf(kp_time, sizeof kp_time, "key points %.3f s, ", r->tm.keypoints);
@@ -330,12 +390,25 @@ void run_summarise(run_state *r)
     else
         run_say(r,
                 "dtx: %lld frames in %.3f s (%.1f frames/s) on %d rank(s) x %d thread(s)%s; "
-                "read %.3f s, %scorrespondence %.3f s, factor %.3f s, transfer %.3f s, write %.3f "
-                "s; mean residual %.4g\ndtx: result: %s",
+                "read %.3f s, %scorrespondence %.3f s, factor %.3f s, output %.3f s, transfer "
+                "%.3f s, write %.3f s, finish %.3f s; mean residual %.4g\ndtx: result: %s",
                 (long long)all.frames, r->tm.total,
                 r->tm.total > 0 ? (double)all.frames / r->tm.total : 0.0, r->nranks, r->nthreads,
                 r->frames_skipped ? " (frames done before were kept)" : "", r->tm.read, kp_time,
-                r->tm.correspond, r->tm.factor, r->tm.transfer, r->tm.write, mean_of(&all),
-                r->job.output_file);
+                r->tm.correspond, r->tm.factor, r->tm.output, r->tm.transfer, r->tm.write,
+                r->tm.finish, mean_of(&all), r->job.output_file);
+    /* With several ranks, how each spent the run (the line above is rank
+     * 0's), so that a rank waiting for another shows. */
+    if (r->mode != OUT_DONE && r->nranks > 1)
+        for (int q = 0; q < r->nranks; q++) {
+            char line[600];
+            size_t len = 0;
+            for (int i = 0; i < NPHASES && len < sizeof line; i++)
+                len += (size_t)snprintf(line + len, sizeof line - len, "%s %s %.3f", i ? "," : "",
+                                        phase_keys[i].name, phase_of(&tms[q], i));
+            run_say(r, "dtx: rank %d (s):%s", q, line);
+        }
     free(rss);
+    free(tm_all);
+    free(tms);
 }

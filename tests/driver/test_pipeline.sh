@@ -33,7 +33,7 @@ job np2 ', "export_obj_dir": "obj"'
 job np3 ', "io": "collective"'
 job np1t2
 OMP_NUM_THREADS=1 mpirun -np 1 "$DTX" run --quiet "$W/np1.json"
-OMP_NUM_THREADS=1 mpirun -np 2 "$DTX" run "$W/np2.json"
+OMP_NUM_THREADS=1 mpirun -np 2 "$DTX" run "$W/np2.json" 2> "$W/np2.log"
 OMP_NUM_THREADS=1 mpirun --oversubscribe -np 3 "$DTX" run --quiet "$W/np3.json"
 OMP_NUM_THREADS=2 mpirun -np 1 "$DTX" run --quiet "$W/np1t2.json"
 
@@ -44,6 +44,38 @@ check "1 thread == 2 threads, bitwise" "$DTX" diff "$W/np1.h5" "$W/np1t2.h5" $R 
 check "result file validates" "$DTX" validate "$W/np2.h5"
 check "9 OBJ frames exported by the job" test "$(ls "$W/obj/lion/cat-poses" | wc -l)" -eq 9
 check "summary written" grep -q '"frames": 9' "$W/np2.h5.summary.json"
+# Every rank's phases: one object per rank, each with every phase as a
+# number >= 0, rank 0's equal to "seconds", and on stderr one line per rank.
+phases_per_rank() { # phases_per_rank SUMMARY RANKS
+    /usr/bin/python3 - "$1" "$2" <<'PY'
+import json, sys
+d = json.load(open(sys.argv[1]))
+n = int(sys.argv[2])
+keys = ["read", "keypoints", "correspondence", "factor", "output", "transfer", "write",
+        "finish", "wait", "total", "cpu"]
+per = d.get("seconds_per_rank")
+bad = []
+if not isinstance(per, list) or len(per) != n:
+    bad.append("seconds_per_rank %r, expected a list of %d" % (per, n))
+else:
+    for q, p in enumerate(per):
+        if sorted(p) != sorted(keys):
+            bad.append("rank %d: keys %s" % (q, sorted(p)))
+        elif not all(isinstance(p[k], (int, float)) and p[k] >= 0 for k in keys):
+            bad.append("rank %d: %r" % (q, p))
+        elif not p["total"] > 0 or not p["transfer"] > 0 or not p["cpu"] > 0:
+            bad.append("rank %d: no total or transfer time: %r" % (q, p))
+    if per[0] != d["seconds"]:
+        bad.append("rank 0 %r is not seconds %r" % (per[0], d["seconds"]))
+print("\n".join(bad))
+sys.exit(1 if bad else 0)
+PY
+}
+check "summary: each of 2 ranks' phases" phases_per_rank "$W/np2.h5.summary.json" 2
+check "summary: each of 3 ranks' phases" phases_per_rank "$W/np3.h5.summary.json" 3
+check "summary: 1 rank, its phases" phases_per_rank "$W/np1.h5.summary.json" 1
+check "stderr: a line per rank" bash -c "grep -q '^dtx: rank 0 (s): read .*, wait .*, total .*, cpu' '$W/np2.log' &&
+    grep -q '^dtx: rank 1 (s): read' '$W/np2.log' && ! grep -q '^dtx: rank 2 (s)' '$W/np2.log'"
 check "no temporary file left" test -z "$(ls "$W" | grep '\.tmp' || true)"
 
 # A second run reuses the correspondence cached in the output.

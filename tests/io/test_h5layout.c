@@ -1034,6 +1034,56 @@ static void test_results(void)
 
 /* One name rule (dtx_h5_check_name) and every writer applies it to the
  * last part of its group path before creating anything. */
+/* float32 frames written in strips (write_frames): frames of 360 KB,
+ * chunks of 3 frames, one call of 11 frames (strips of whole chunks and a
+ * short last chunk) and a call starting inside the dataset; every value
+ * reads back as the float32 of what was written, frame_done all set. */
+static void test_result_strips(void)
+{
+    enum { T = 14, NV = 30000 };
+    dtx_error e;
+    dtx_mesh m;
+    dtx_h5_result r;
+    hid_t f = h5check_new_file(SCRATCH "strips.h5");
+    double *X = malloc(sizeof *X * T * NV * 3), *Y = malloc(sizeof *Y * T * NV * 3);
+    double res[T];
+    uint8_t done[T];
+    long bad = 0;
+    dtx_h5_provenance prov = {"sp04", "{\"dtx_job\": 1}", "{}", "a.h5:/sequences/s", "/meshes/m",
+                              ""};
+    CHECK(X && Y);
+    /* NV / 3 separate triangles. */
+    CHECK_OK(dtx_mesh_alloc(&m, NV, NV / 3, &e), &e);
+    for (int32_t i = 0; i < NV; i++) {
+        m.V[3 * i] = i / 3 + (i % 3 == 1);
+        m.V[3 * i + 1] = i % 3 == 2;
+        m.V[3 * i + 2] = 0.0;
+        m.F[i] = i;
+    }
+    CHECK_OK(dtx_h5_write_mesh(f, "/meshes/m", &m, "m.obj", &e), &e);
+    fill_frames(X, 0, T, NV);
+    for (int t = 0; t < T; t++)
+        res[t] = t;
+    CHECK_OK(dtx_h5_result_create(f, "/results/m", &prov, T, NV, 0, 3, 0, &r, &e), &e);
+    CHECK_OK(dtx_h5_result_write(&r, 0, 11, X, res, 0, &e), &e);
+    CHECK_OK(dtx_h5_result_write(&r, 11, 3, X + (size_t)11 * NV * 3, res + 11, 0, &e), &e);
+    CHECK_OK(dtx_h5_result_read(&r, 0, T, Y, NULL, &e), &e);
+    for (size_t i = 0; i < (size_t)T * NV * 3; i++)
+        bad += Y[i] != (double)(float)X[i];
+    if (bad)
+        fprintf(stderr, "  %ld values differ from their float32\n", bad);
+    CHECK(bad == 0);
+    CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
+    for (int t = 0; t < T; t++)
+        CHECK(done[t] == 1);
+    CHECK_OK(dtx_h5_result_finish(&r, 0, &e), &e);
+    dtx_h5_result_close(&r);
+    dtx_mesh_free(&m);
+    free(X);
+    free(Y);
+    CHECK_OK(dtx_h5_close(&f, &e), &e);
+}
+
 static void test_names(void)
 {
     static const char *const good[] = {"lion", "a", "...", "..x", ".x", ".dtx", ".dtxtmp",
@@ -1102,6 +1152,7 @@ int main(void)
     run(test_markers, "markers");
     run(test_corr, "corr");
     run(test_results, "results");
+    run(test_result_strips, "result_strips");
     run(test_names, "names");
     return check_report();
 }
