@@ -245,7 +245,9 @@ static cJSON *read_run_summary(const char *file, char *path, size_t n)
 
 static void print_run_summary(FILE *o, const cJSON *j, const char *path)
 {
-    static const char *const phases[] = {"read", "correspondence", "factor", "transfer", "write"};
+    static const char *const phases[] = {"read",     "keypoints", "correspondence",
+                                         "factor",   "output",    "transfer",
+                                         "write",    "finish",    "wait"};
     const cJSON *mode = cJSON_GetObjectItemCaseSensitive(j, "mode"),
                 *sec = cJSON_GetObjectItemCaseSensitive(j, "seconds");
     fprintf(o, "run summary (%s):\n", path);
@@ -254,8 +256,11 @@ static void print_run_summary(FILE *o, const cJSON *j, const char *path)
             jnum(j, "threads_per_rank"), jnum(j, "frames"), jnum(j, "frames_skipped"));
     if (cJSON_IsObject(sec)) {
         fprintf(o, "  seconds: total %.3g (", jnum(sec, "total"));
+        int n = 0;
+        /* A phase the summary lacks (an older summary's) is left out. */
         for (size_t i = 0; i < sizeof phases / sizeof *phases; i++)
-            fprintf(o, "%s%s %.3g", i ? ", " : "", phases[i], jnum(sec, phases[i]));
+            if (isfinite(jnum(sec, phases[i])))
+                fprintf(o, "%s%s %.3g", n++ ? ", " : "", phases[i], jnum(sec, phases[i]));
         fprintf(o, "), %.3g frames/s\n", jnum(j, "frames_per_second"));
     }
     if (isfinite(jnum(j, "peak_rss_mb")))

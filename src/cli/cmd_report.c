@@ -209,6 +209,41 @@ static void cell(FILE *f, const char *fmt, double v)
     fputc(' ', f);
 }
 
+/* Every rank's phases (the summary's seconds_per_rank), a row per rank:
+ * where one rank waits for another or does work the others do not, and
+ * the phases the Run table leaves out (creating the output, finishing it,
+ * waiting in the frame loop, CPU seconds).  Nothing for a summary without
+ * them (an older dtx's summary). */
+static void write_ranks(FILE *f, const cJSON *sum)
+{
+    static const char *const keys[] = {"total", "read",     "keypoints", "correspondence",
+                                       "factor", "output",  "transfer",  "write",
+                                       "finish", "wait",    "cpu"};
+    const cJSON *per = cJSON_GetObjectItemCaseSensitive(sum, "seconds_per_rank");
+    const cJSON *r;
+    int q = 0;
+    if (!cJSON_IsArray(per) || cJSON_GetArraySize(per) < 1)
+        return;
+    fputs("Phases per rank, in seconds (`write` is the frame loop's writes; `finish` marks the "
+          "results complete, closes and renames the output; `wait` is the frame loop waiting "
+          "for the other ranks; `cpu` is the process's user + system time):\n\n| rank |",
+          f);
+    for (size_t i = 0; i < sizeof keys / sizeof *keys; i++)
+        fprintf(f, " %s |", keys[i]);
+    fputs("\n|---:|", f);
+    for (size_t i = 0; i < sizeof keys / sizeof *keys; i++)
+        fputs("---:|", f);
+    fputc('\n', f);
+    cJSON_ArrayForEach(r, per)
+    {
+        fprintf(f, "| %d ", q++);
+        for (size_t i = 0; i < sizeof keys / sizeof *keys; i++)
+            cell(f, "%.3f", num(r, keys[i]));
+        fputs("|\n", f);
+    }
+    fputc('\n', f);
+}
+
 static void write_run(FILE *f, const cJSON *sum, const char *sum_path)
 {
     const cJSON *sec = cJSON_GetObjectItemCaseSensitive(sum, "seconds");
@@ -234,6 +269,7 @@ static void write_run(FILE *f, const cJSON *sum, const char *sum_path)
     cell(f, "%.3f", num(sec, "write"));
     cell(f, "%.1f", num(sum, "peak_rss_mb"));
     fputs("|\n\n", f);
+    write_ranks(f, sum);
 }
 
 static int cmp_dbl(const void *a, const void *b)

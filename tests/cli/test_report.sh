@@ -77,6 +77,36 @@ check "report without a summary" "$DTX" report out.h5 -o nosum.md --no-pictures
 check "says the summary is missing" grep -q 'No run summary' nosum.md
 check "--summary FILE" "$DTX" report out.h5 -o withsum.md --no-pictures --summary saved.json
 check "timings from --summary" grep -q '^## Run$' withsum.md
+# Every rank's phases: one row per rank of the summary's seconds_per_rank,
+# rank 0's total the Run table's.  A one-rank run gives one row; a summary
+# with two ranks (rank 1 waiting 0.25 s) gives two, in rank order.
+check "phases per rank" grep -q '^Phases per rank' withsum.md
+# rank_rows FILE: the rows of the per-rank table.
+rank_rows() { awk '/^Phases per rank/ {f = 1} f && /^\| rank \|/ {t = 1; next} t && /^$/ {exit} t && /^\| [0-9]+ \|/ {print}' "$1"; }
+rows=$(rank_rows withsum.md | wc -l)
+check "one row per rank at 1 rank ($rows)" test "$rows" -eq 1
+t0=$(rank_rows withsum.md | grep -E '^\| 0 \|' | awk -F'|' '{gsub(/ /,"",$3); print $3}')
+trun=$(grep -A2 '^| ranks |' withsum.md | tail -1 | awk -F'|' '{gsub(/ /,"",$5); print $5}')
+check "rank 0's total is the run's ($t0, $trun)" test -n "$t0" -a "$t0" = "$trun"
+if /usr/bin/python3 -c 'import json' 2> /dev/null; then
+    /usr/bin/python3 - <<'PY'
+import json
+d = json.load(open("saved.json"))
+r0 = dict(d["seconds_per_rank"][0])
+r1 = dict(r0); r1["wait"] = 0.25; r1["total"] = 7.5
+d["ranks"] = 2; d["seconds_per_rank"] = [r0, r1]
+json.dump(d, open("two.json", "w"))
+PY
+    check "report with a 2-rank summary" "$DTX" report out.h5 -o two.md --no-pictures --summary two.json
+    rows=$(rank_rows two.md | wc -l)
+    check "one row per rank at 2 ranks ($rows)" test "$rows" -eq 2
+    check "rank 1's row: its total and its wait" \
+        bash -c "grep -A6 '^Phases per rank' two.md | grep -E '^\| 1 \| 7.500 \|' | grep -qE '\| 0.250 \| [0-9.]+ \|\$'"
+    # dtx inspect reads the summary beside the file and names every phase it holds.
+    cp out.h5 insp.h5 && cp saved.json insp.h5.summary.json
+    check "inspect names output, finish and wait" \
+        bash -c "'$DTX' inspect insp.h5 | grep -E '^  seconds: total' | grep 'output [0-9]' | grep 'finish [0-9]' | grep -q 'wait [0-9]'"
+fi
 
 # Solver figures beyond TABLE_MAX (100) frames: a 102-frame result given
 # frame_stats and frame_grad_norm by h5py (as springs writes them; sp04
