@@ -203,10 +203,9 @@ static void compare_corr(const char *path, const dtx_corr *c)
     printf("  against %s: deformed target bitwise identical: %s; max |difference| %.3g "
            "(%.3g of the diagonal %.4g); pairs %lld here, %lld there, %lld only here, "
            "%lld only there\n",
-           path,
-           memcmp(X, c->deformed_tgt, 3 * (size_t)c->nv_tgt * sizeof *X) == 0 ? "yes" : "no",
-           dmax, dmax / diag, diag, (long long)c->npairs, (long long)hdr[1],
-           (long long)only_here, (long long)only_there);
+           path, memcmp(X, c->deformed_tgt, 3 * (size_t)c->nv_tgt * sizeof *X) == 0 ? "yes" : "no",
+           dmax, dmax / diag, diag, (long long)c->npairs, (long long)hdr[1], (long long)only_here,
+           (long long)only_there);
     free(X);
     free(P);
     free(Q);
