@@ -42,13 +42,14 @@
 
 #define DTX_PI 3.14159265358979323846
 
-/* A phase whose matrix differs from the factored one by at most this many
- * diagonal entries (vertices that gained or lost their closest point at
- * the same weight) is solved from the old factor by a low-rank correction
- * (cholmod_util.h) instead of refactorising; it must reach a direct solve's
- * backward error within LOWRANK_STEPS refinement steps, or the phase
- * refactorises after all. */
+/* A phase whose matrix differs from the factored one by at most
+ * prm->lowrank_max diagonal entries (vertices that gained or lost their
+ * closest point at the same weight; LOWRANK_MAX_K by default) is solved from
+ * the old factor by a low-rank correction (cholmod_util.h) instead of
+ * refactorising; it must reach a direct solve's backward error within
+ * LOWRANK_STEPS refinement steps, or the phase refactorises after all. */
 #define LOWRANK_MAX_K 200
+#define LOWRANK_MAX_K_LIMIT 100000
 #define LOWRANK_STEPS 3
 #define LOWRANK_TOL 1e-15
 
@@ -76,6 +77,7 @@ void dtx_corr_params_default(dtx_corr_params *p)
     p->closest_on = DTX_CORR_ON_SURFACE;
     p->closest_normals = 1;
     p->weights = DTX_CORR_WEIGHTS_AREA;
+    p->lowrank_max = LOWRANK_MAX_K;
 }
 
 void dtx_corr_free(dtx_corr *c)
@@ -689,8 +691,8 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
         kx_base = dtx_alloc((size_t)Kp[nfree], sizeof *kx_base, 0);
         diagpos = dtx_alloc((size_t)nfree, sizeof *diagpos, 0);
         diag_fact = dtx_alloc((size_t)nfree, sizeof *diag_fact, 0);
-        lr_idx = dtx_alloc(LOWRANK_MAX_K, sizeof *lr_idx, 0);
-        lr_c = dtx_alloc(LOWRANK_MAX_K, sizeof *lr_c, 0);
+        lr_idx = dtx_alloc((size_t)prm->lowrank_max + 1, sizeof *lr_idx, 0);
+        lr_c = dtx_alloc((size_t)prm->lowrank_max + 1, sizeof *lr_c, 0);
         if (!kx_base || !diagpos || !diag_fact || !lr_idx || !lr_c)
             goto nomem;
         memcpy(kx_base, K->x, (size_t)Kp[nfree] * sizeof *kx_base);
@@ -782,7 +784,7 @@ static dtx_status deform_mesh(const int32_t *F, int32_t nv, int32_t nf, const do
                     double c = Kx[diagpos[fv]] - diag_fact[fv];
                     if (c == 0.0)
                         continue;
-                    if (k == LOWRANK_MAX_K)
+                    if (k == prm->lowrank_max)
                         refactor = 1;
                     else {
                         lr_idx[k] = fv;
@@ -1058,6 +1060,9 @@ dtx_status dtx__corr_check(const dtx_mesh *src, const dtx_mesh *tgt,
     if (prm->n_closest < 0 || prm->n_closest > 16)
         return dtx_seterr(err, DTX_EINVAL, "n_closest must be in [0, 16], got %d",
                           prm->n_closest);
+    if (prm->lowrank_max < 0 || prm->lowrank_max > LOWRANK_MAX_K_LIMIT)
+        return dtx_seterr(err, DTX_EINVAL, "lowrank_max must be in [0, %d], got %d",
+                          LOWRANK_MAX_K_LIMIT, prm->lowrank_max);
     return dtx_markers_validate(markers, src->nv, tgt->nv, "markers", err);
 }
 

@@ -140,6 +140,12 @@ typedef struct {
                              DTX_CORR_WEIGHTS_AREA: each triangle's E_I and each
                              vertex's E_C weighted by its share of the source's
                              area at DTX_CORR_REF_DENSITY (see correspondence.c) */
+    int lowrank_max;      /* a phase at the factored phase's weight whose set of
+                             vertices with a valid closest point differs from the
+                             factored one's by at most this many vertices is
+                             solved from the old factor by a low-rank correction
+                             (default 200; 0: such phases refactorise, as before
+                             issue 20; must be in [0, 100000]) */
 } dtx_corr_params;
 
 enum { DTX_CORR_ON_SURFACE = 0, DTX_CORR_ON_VERTICES = 1 };
@@ -169,8 +175,9 @@ typedef struct {
     int factorizations;    /* numeric factorisations done: a phase whose matrix
                               is the factored one (same weight, same set of
                               valid closest points) reuses its factor, and so
-                              does one where at most 200 vertices gained or
-                              lost their closest point (low-rank correction) */
+                              does one where at most params->lowrank_max
+                              vertices gained or lost their closest point
+                              (low-rank correction) */
     double fit_rms;        /* RMS distance (fraction of target diagonal) of the
                               deformed source vertices to the target surface */
 } dtx_corr;

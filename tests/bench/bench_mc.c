@@ -24,6 +24,16 @@
  *   --tol T          stopping tolerance, fraction of the diagonal [the default, 1e-6]
  *   --solver S       fixed-point or newton [the default, fixed-point]
  *   --no-check       skip the comparison with sp04 on the unbroken target
+ *   --lowrank-max N  correspondence phases solved from the old factor when
+ *                    at most N vertices gained or lost their closest point
+ *                    (dtx_corr_params.lowrank_max) [200; 0: refactorise]
+ *   --dump FILE      write the correspondence (deformed target and pairs) to
+ *                    FILE: "DTXMCDMP", int64 nv, int64 npairs, nv x 3
+ *                    float64, npairs x 2 int32 (native byte order)
+ *   --compare FILE   print how far this run's correspondence lies from the
+ *                    one dumped in FILE: max |coordinate difference| over
+ *                    the deformed target's bounding-box diagonal, and the
+ *                    pairs found in one only
  *
  * Prints: sizes; proximity graph; correspondence seconds (wall and CPU;
  * the proximity graph and the E_R triangle pairs, which it builds first,
@@ -35,7 +45,9 @@
  * each pebble vertex from sp04's result on the unbroken target at its
  * mapped vertex (mean offset removed, % of the diagonal) and the median
  * relative change of the proximity-pair lengths.  The machine is shared:
- * compare CPU seconds, or runs made one after the other.
+ * compare CPU seconds, or runs made one after the other.  The correspondence
+ * runs on OMP_NUM_THREADS threads (all by default), whatever --threads says;
+ * BLAS on one.
  */
 #include "bench_data.h"
 #include "dtx_core.h"
@@ -52,10 +64,20 @@
 #define PAPER_FRAME_S 14.72
 #define MAX_THREAD_RUNS 8
 
+/* OpenBLAS's own call, when that is the BLAS we run on.  The bench keeps
+ * BLAS single-threaded as the dtx command does (src/driver/run.c): OpenBLAS
+ * otherwise takes its thread count from OMP_NUM_THREADS, and its threads
+ * change the supernodal factorisations' rounding (the correspondence's
+ * deformed target moved by 1.6e-10 of the diagonal between
+ * OMP_NUM_THREADS=1 and 2) and fight with OpenMP for the cores. */
+extern void openblas_set_num_threads(int n) __attribute__((weak));
+#define DUMP_MAGIC "DTXMCDMP"
+
 typedef struct {
-    int pieces, subdivide, frames, check, max_iter, newton;
+    int pieces, subdivide, frames, check, max_iter, newton, lowrank_max;
     double gap, thickness, eps, tol;
     int nthreads, threads[MAX_THREAD_RUNS];
+    const char *dump, *compare;
 } options;
 
 static int cmp_dbl(const void *x, const void *y)
@@ -97,6 +119,98 @@ static double rms_mapped(const double *a, int32_t na, const double *b, const int
     return sqrt(s2 / n) / diag;
 }
 
+/* Writes the correspondence to path as --dump describes, aside then by
+ * rename, so that path is never half-written. */
+static void dump_corr(const char *path, const dtx_corr *c)
+{
+    char tmp[4096];
+    int64_t hdr[2] = {c->nv_tgt, c->npairs};
+    FILE *f;
+    int ok;
+    if (snprintf(tmp, sizeof tmp, "%s.tmp", path) >= (int)sizeof tmp)
+        bench_die_msg("path too long", path);
+    f = fopen(tmp, "wb");
+    if (!f)
+        bench_die_msg("cannot create", tmp);
+    ok = fwrite(DUMP_MAGIC, 1, 8, f) == 8 && fwrite(hdr, sizeof *hdr, 2, f) == 2 &&
+         fwrite(c->deformed_tgt, 3 * sizeof(double), (size_t)c->nv_tgt, f) == (size_t)c->nv_tgt &&
+         fwrite(c->pairs, 2 * sizeof(int32_t), (size_t)c->npairs, f) == (size_t)c->npairs;
+    if (fclose(f) != 0 || !ok) {
+        remove(tmp);
+        bench_die_msg("write failed", tmp);
+    }
+    if (rename(tmp, path) != 0) {
+        remove(tmp);
+        bench_die_msg("cannot rename the temporary file onto it", path);
+    }
+}
+
+/* Pairs ordered by target triangle, then source triangle. */
+static int cmp_pair(const void *x, const void *y)
+{
+    const int32_t *a = x, *b = y;
+    if (a[1] != b[1])
+        return (a[1] > b[1]) - (a[1] < b[1]);
+    return (a[0] > b[0]) - (a[0] < b[0]);
+}
+
+/* Prints how far c lies from the correspondence dumped in path. */
+static void compare_corr(const char *path, const dtx_corr *c)
+{
+    char magic[8];
+    int64_t hdr[2], only_here = 0, only_there = 0, i = 0, j = 0;
+    double *X, diag, dmax = 0.0;
+    int32_t *P, *Q;
+    FILE *f = fopen(path, "rb");
+    if (!f)
+        bench_die_msg("cannot open", path);
+    if (fread(magic, 1, 8, f) != 8 || memcmp(magic, DUMP_MAGIC, 8) != 0 ||
+        fread(hdr, sizeof *hdr, 2, f) != 2)
+        bench_die_msg("not a dtx_bench_mc --dump file", path);
+    if (hdr[0] != c->nv_tgt || hdr[1] < 0 || hdr[1] > INT32_MAX)
+        bench_die_msg("vertex count differs from this run's (or bad pair count)", path);
+    X = bench_xmalloc((size_t)hdr[0], 3 * sizeof *X);
+    P = bench_xmalloc((size_t)hdr[1] + 1, 2 * sizeof *P);
+    if (fread(X, 3 * sizeof *X, (size_t)hdr[0], f) != (size_t)hdr[0] ||
+        fread(P, 2 * sizeof *P, (size_t)hdr[1], f) != (size_t)hdr[1] || fgetc(f) != EOF)
+        bench_die_msg("truncated, or longer than its header says", path);
+    fclose(f);
+    diag = dtx_bbox_diagonal(c->deformed_tgt, c->nv_tgt);
+    /* Written so that a NaN on either side becomes the maximum. */
+    for (size_t k = 0; k < 3 * (size_t)c->nv_tgt; k++) {
+        double d = fabs(c->deformed_tgt[k] - X[k]);
+        if (!(d <= dmax))
+            dmax = d;
+    }
+    /* The pairs as multisets: both sorted, then merged. */
+    Q = bench_xmalloc((size_t)c->npairs + 1, 2 * sizeof *Q);
+    memcpy(Q, c->pairs, (size_t)c->npairs * 2 * sizeof *Q);
+    qsort(P, (size_t)hdr[1], 2 * sizeof *P, cmp_pair);
+    qsort(Q, (size_t)c->npairs, 2 * sizeof *Q, cmp_pair);
+    while (i < c->npairs || j < hdr[1]) {
+        int o = i == c->npairs ? 1 : j == hdr[1] ? -1 : cmp_pair(Q + 2 * i, P + 2 * j);
+        if (o < 0) {
+            only_here++;
+            i++;
+        } else if (o > 0) {
+            only_there++;
+            j++;
+        } else {
+            i++;
+            j++;
+        }
+    }
+    printf("  against %s: deformed target bitwise identical: %s; max |difference| %.3g "
+           "(%.3g of the diagonal %.4g); pairs %lld here, %lld there, %lld only here, "
+           "%lld only there\n",
+           path, memcmp(X, c->deformed_tgt, 3 * (size_t)c->nv_tgt * sizeof *X) == 0 ? "yes" : "no",
+           dmax, dmax / diag, diag, (long long)c->npairs, (long long)hdr[1], (long long)only_here,
+           (long long)only_there);
+    free(X);
+    free(P);
+    free(Q);
+}
+
 /* Median over the proximity pairs of |l - l0| / l0 in frame x. */
 static double median_pair_change(const dtx_proximity *prox, const double *x, double *scratch)
 {
@@ -120,7 +234,8 @@ static void usage(void)
             "usage: dtx_bench_mc DATA_DIR [--pieces N] [--gap G] [--thickness T] "
             "[--subdivide L]\n"
             "                    [--eps E] [--frames N] [--threads 1,2] [--max-iter N] [--tol T]\n"
-            "                    [--solver fixed-point|newton] [--no-check]\n");
+            "                    [--solver fixed-point|newton] [--no-check] [--lowrank-max N]\n"
+            "                    [--dump FILE] [--compare FILE]\n");
     exit(2);
 }
 
@@ -136,6 +251,9 @@ static void parse(int argc, char **argv, options *o)
     o->max_iter = 0;
     o->newton = 0;
     o->tol = -1.0;
+    o->lowrank_max = -1;
+    o->dump = NULL;
+    o->compare = NULL;
     o->nthreads = 2;
     o->threads[0] = 1;
     o->threads[1] = 2;
@@ -167,6 +285,16 @@ static void parse(int argc, char **argv, options *o)
             o->newton = strcmp(v, "newton") == 0;
         else if (strcmp(a, "--tol") == 0)
             o->tol = atof(v);
+        else if (strcmp(a, "--lowrank-max") == 0) {
+            char *end;
+            long n = strtol(v, &end, 10);
+            if (end == v || *end || n < 0 || n > INT32_MAX)
+                usage();
+            o->lowrank_max = (int)n;
+        } else if (strcmp(a, "--dump") == 0)
+            o->dump = v;
+        else if (strcmp(a, "--compare") == 0)
+            o->compare = v;
         else if (strcmp(a, "--threads") == 0) {
             char *end;
             const char *s = v;
@@ -212,10 +340,14 @@ int main(int argc, char **argv)
     int32_t *tri;
 
     bench_set_name("dtx_bench_mc");
+    if (openblas_set_num_threads)
+        openblas_set_num_threads(1);
     if (argc < 2 || argv[1][0] == '-')
         usage();
     parse(argc, argv, &o);
     dtx_corr_params_default(&cp);
+    if (o.lowrank_max >= 0)
+        cp.lowrank_max = o.lowrank_max;
     dtx_mc_params_default(&prm);
     prm.eps_factor = o.eps;
     if (o.max_iter > 0)
@@ -281,8 +413,13 @@ int main(int argc, char **argv)
            "%d orphan triangles, fit %.3g%% of the diagonal)\n",
            t_corr, max_threads, c_corr, corr.solves, (long long)corr.npairs,
            (int)corr.unmatched_tgt, 100.0 * corr.fit_rms);
-    printf("    of which proximity graph ~%.3f s, E_R triangle pairs ~%.3f s (timed apart)\n",
-           t_prox, t_tri);
+    printf("    of which proximity graph ~%.3f s, E_R triangle pairs ~%.3f s (timed apart); "
+           "%d factorisations (low-rank phases up to %d vertices)\n",
+           t_prox, t_tri, corr.factorizations, cp.lowrank_max);
+    if (o.compare)
+        compare_corr(o.compare, &corr);
+    if (o.dump)
+        dump_corr(o.dump, &corr);
 
     t0 = omp_get_wtime();
     if (dtx_mc_plan_create(&ds.src, &peb, corr.pairs, corr.npairs, &prm, DTX_ANCHOR_FIXED, NULL,

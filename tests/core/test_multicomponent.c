@@ -12,7 +12,10 @@
  *  - Pebble lion (the lion shattered into 240 pieces by dtx_gen_pebbles,
  *    markers moved to the pebble vertices): every pebble vertex within 2% of
  *    the diagonal (RMS) of where sp04 puts its lion vertex, proximity-pair
- *    lengths kept (median change <= 5%), no piece left behind.
+ *    lengths kept (median change <= 5%), no piece left behind; its
+ *    correspondence with low-rank phases (dtx_corr_params.lowrank_max) and
+ *    with a factorisation at every changed phase agree (same pairs,
+ *    deformed targets within 1e-12 of the diagonal).
  *  - Lion + garment shell: the shell follows the body.
  */
 #include "check.h"
@@ -373,6 +376,48 @@ static void test_pebbles(void)
            peb.nv, info.components, (long long)info.proximity_pairs, info.orphan_triangles,
            info.orphan_components, cs, fs, itmax);
     CHECK_EQ_INT(info.components, 240);
+    /* The correspondence's low-rank phases (dtx_corr_params.lowrank_max,
+     * default) against refactorising every phase whose matrix changed (0):
+     * fewer factorisations, the same pairs, deformed targets within 1e-12
+     * of the diagonal.  The default weights leave no such phase on this
+     * small target; a tight max_distance and three phases at one weight make
+     * a few vertices gain or lose their closest point between phases. */
+    {
+        dtx_corr a = {0}, b = {0};
+        dtx_corr_params cp;
+        double dmax = 0.0, dg;
+        dtx_corr_params_default(&cp);
+        cp.n_closest = 4;
+        cp.w_closest[0] = 1.0;
+        cp.w_closest[1] = cp.w_closest[2] = cp.w_closest[3] = 100.0;
+        cp.max_distance = 0.01;
+        CHECK_OK(dtx_mc_correspond(&cat, &peb, &pm, &cp, PEBBLE_EPS, &a, &err), &err);
+        cp.lowrank_max = 0;
+        CHECK_OK(dtx_mc_correspond(&cat, &peb, &pm, &cp, PEBBLE_EPS, &b, &err), &err);
+        if (a.deformed_tgt && b.deformed_tgt) {
+            dg = dtx_bbox_diagonal(a.deformed_tgt, a.nv_tgt);
+            for (size_t i = 0; i < 3 * (size_t)peb.nv; i++) {
+                double d = fabs(a.deformed_tgt[i] - b.deformed_tgt[i]);
+                if (!(d <= dmax)) /* NaN becomes the maximum */
+                    dmax = d;
+            }
+            printf("pebble lion, correspondence: %d factorisations with low-rank phases, %d "
+                   "without (%d solves); deformed targets %.3g of the diagonal apart\n",
+                   a.factorizations, b.factorizations, a.solves, dmax / dg);
+            CHECK_INT(a.factorizations, <, b.factorizations);
+            CHECK_EQ_INT(a.solves, b.solves);
+            CHECK_DBL(dmax, <=, 1e-12 * dg);
+            CHECK_EQ_INT(a.npairs, b.npairs);
+            if (a.npairs == b.npairs)
+                CHECK_EQ_INT(memcmp(a.pairs, b.pairs, 2 * sizeof(int32_t) * (size_t)a.npairs), 0);
+        }
+        dtx_corr_free(&a);
+        dtx_corr_free(&b);
+        cp.lowrank_max = -1;
+        CHECK_EQ_INT(dtx_mc_correspond(&cat, &peb, &pm, &cp, PEBBLE_EPS, &a, &err), DTX_EINVAL);
+        CHECK(strstr(err.msg, "lowrank_max") != NULL);
+        dtx_corr_free(&a);
+    }
     for (int f = 0; f < NPOSE; f++) {
         double r = rms_mapped(res + (size_t)f * 3 * peb.nv, peb.nv,
                               sp04_res + (size_t)f * 3 * lion.nv, map, lion_diag);
