@@ -1736,34 +1736,62 @@ static dtx_status write_frames(hid_t file, hid_t dset, const char *path, int par
 /* Reads frames of a positions dataset as doubles.  float32 frames are read
  * as they are stored into the upper half of out, then widened in place
  * from the front: HDF5's own conversion goes through its type-conversion
- * buffer and a scatter copy, which cost more than the read itself. */
+ * buffer and a scatter copy, which cost more than the read itself.  They
+ * are read in strips of about 1 MiB (whole chunks, the strips' bounds on
+ * multiples of the strip in the dataset), each widened right after its
+ * read while the kernel's copy of it is still in cache: read whole, a
+ * block's floats (several MB) went out to memory and came back for the
+ * widening, as the writes' did before write_frames took strips. */
 static dtx_status read_frames(hid_t file, hid_t dset, const char *path, int64_t nframes,
                               int32_t nv, int is_f64, int64_t first, int64_t count, double *out,
                               dtx_error *err)
 {
     hsize_t inner[2] = {(hsize_t)nv, 3};
-    const size_t n = (size_t)count * (size_t)nv * 3u;
+    const size_t per = (size_t)nv * 3u, n = (size_t)count * per;
     float *f = (float *)out + n; /* bytes [4n, 8n) of out */
+    int64_t strip;
     dtx_status st;
     if ((st = check_frames(file, path, nframes, first, count, err)) != DTX_OK)
         return st;
     if (count == 0)
         return DTX_OK;
-    if (slab_io(dset, 0, 3, first, count, inner, is_f64 ? H5T_NATIVE_DOUBLE : H5T_NATIVE_FLOAT,
-                is_f64 ? (void *)out : (void *)f, H5P_DEFAULT) < 0)
-        return h5err(err, file, path, "cannot read frames [%lld, %lld)", (long long)first,
-                     (long long)(first + count));
-    if (!is_f64) {
-        /* Piece by piece through a local buffer: writing out[0, i + m)
-         * overwrites floats below index 2(i + m) - n <= i + m only, which
-         * have been copied out already. */
-        float piece[1024];
-        for (size_t i = 0; i < n; i += 1024) {
-            const size_t m = n - i < 1024 ? n - i : 1024;
-            memcpy(piece, f + i, m * sizeof *piece);
-            for (size_t k = 0; k < m; k++)
-                out[i + k] = (double)piece[k];
+    if (is_f64) {
+        if (slab_io(dset, 0, 3, first, count, inner, H5T_NATIVE_DOUBLE, out, H5P_DEFAULT) < 0)
+            return h5err(err, file, path, "cannot read frames [%lld, %lld)", (long long)first,
+                         (long long)(first + count));
+        return DTX_OK;
+    }
+    strip = (int64_t)((1u << 20) / (per * sizeof(float)));
+    strip = strip < 1 ? 1 : strip;
+    {
+        const int64_t cf = chunk_frames(dset);
+        strip = (strip + cf - 1) / cf * cf;
+    }
+    for (int64_t g = 0; g < count;) {
+        /* Frames [first + g, first + g + m): to the next multiple of the
+         * strip, or the end. */
+        int64_t m = strip - (first + g) % strip;
+        float *fs = f + (size_t)g * per;
+        double *ds = out + (size_t)g * per;
+        m = m > count - g ? count - g : m;
+        if (slab_io(dset, 0, 3, first + g, m, inner, H5T_NATIVE_FLOAT, fs, H5P_DEFAULT) < 0)
+            return h5err(err, file, path, "cannot read frames [%lld, %lld)", (long long)(first + g),
+                         (long long)(first + g + m));
+        /* Piece by piece through a local buffer: writing out[0, j + k)
+         * overwrites floats below index 2(j + k) - n <= j + k only (j, k
+         * from the front of out), which have been copied out already; the
+         * strips after this one, above it, are not reached. */
+        {
+            float piece[1024];
+            const size_t sn = (size_t)m * per;
+            for (size_t i = 0; i < sn; i += 1024) {
+                const size_t q = sn - i < 1024 ? sn - i : 1024;
+                memcpy(piece, fs + i, q * sizeof *piece);
+                for (size_t k = 0; k < q; k++)
+                    ds[i + k] = (double)piece[k];
+            }
         }
+        g += m;
     }
     return DTX_OK;
 }

@@ -1037,7 +1037,8 @@ static void test_results(void)
 /* float32 frames written in strips (write_frames): frames of 360 KB,
  * chunks of 3 frames, one call of 11 frames (strips of whole chunks and a
  * short last chunk) and a call starting inside the dataset; every value
- * reads back as the float32 of what was written, frame_done all set. */
+ * reads back (whole, and from inside the dataset: read_frames' strips) as
+ * the float32 of what was written, frame_done all set. */
 static void test_result_strips(void)
 {
     enum { T = 14, NV = 30000 };
@@ -1072,6 +1073,18 @@ static void test_result_strips(void)
         bad += Y[i] != (double)(float)X[i];
     if (bad)
         fprintf(stderr, "  %ld values differ from their float32\n", bad);
+    CHECK(bad == 0);
+    /* Read back in strips too (read_frames): a call starting inside a
+     * strip (a first strip of 1 frame, then 3, 3, 3 and 2), into a buffer
+     * of NaNs, so that a frame left out or widened from floats already
+     * overwritten would show. */
+    for (size_t i = 0; i < (size_t)T * NV * 3; i++)
+        Y[i] = NAN;
+    CHECK_OK(dtx_h5_result_read(&r, 2, T - 2, Y, NULL, &e), &e);
+    for (size_t i = 0; i < (size_t)(T - 2) * NV * 3; i++)
+        bad += !(Y[i] == (double)(float)X[(size_t)2 * NV * 3 + i]);
+    if (bad)
+        fprintf(stderr, "  %ld values of frames [2, %d) differ from their float32\n", bad, T);
     CHECK(bad == 0);
     CHECK_OK(dtx_h5_result_read_done(&r, done, &e), &e);
     for (int t = 0; t < T; t++)
