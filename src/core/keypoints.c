@@ -56,6 +56,11 @@ typedef struct {
     dtx_skin_params skin;
     int exact;
     dtx_skin_eval *ev; /* the round's frames, clustering and starting rotations (fast mode) */
+    /* The set generation (gen) and cluster count ev was built for (-1:
+     * none): a round on the same set with as many clusters (a replacement
+     * round after a rejected one) would build it again bit for bit. */
+    int64_t ev_gen;
+    int32_t ev_k;
     /* Fast mode: candidate i's Green's function for the handle set of
      * generation ggen[i] (-1: none) at gcache + i nv; the generation counts
      * the commits.  Every part holds every candidate's (gcache_fill): they
@@ -404,13 +409,18 @@ static int32_t argmin(const double *v, int32_t n)
 }
 
 /* The round's clustering (fast mode): the current set's clamped weights,
- * and c->ev for it. */
+ * and c->ev for it.  Kept from the round before when that one had the
+ * same set and cluster count (it depends on nothing else).  Leaves
+ * w->labels alone when kept. */
 static dtx_status round_labels(kp_ctx *c, const dtx_bbw_incr *incr, int32_t k, int threads,
                                kp_work *w, dtx_error *e)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
-    memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
     dtx_status st;
+    if (c->ev && c->ev_gen == c->gen && c->ev_k == k)
+        return DTX_OK;
+    c->ev_gen = -1;
+    memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
     if (dtx_bbw_clamp_normalise(w->W, c->nv, m, NULL) < 0)
         return dtx_seterr(e, DTX_ESOLVE, "key points: weights of the current set sum to 0");
     if ((st = cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e)) != DTX_OK)
@@ -418,7 +428,12 @@ static dtx_status round_labels(kp_ctx *c, const dtx_bbw_incr *incr, int32_t k, i
     /* Every candidate of the round is fitted with this clustering, from
      * the same starting rotations. */
     dtx_skin_eval_free(&c->ev);
-    return dtx_skin_eval_create(c->sm, w->labels, k, c->nframes, c->X, &c->skin, &c->ev, e);
+    if ((st = dtx_skin_eval_create(c->sm, w->labels, k, c->nframes, c->X, &c->skin, &c->ev, e)) !=
+        DTX_OK)
+        return st;
+    c->ev_gen = c->gen;
+    c->ev_k = k;
+    return DTX_OK;
 }
 
 static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error *err)
@@ -498,6 +513,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     c.skin = p->skin;
     c.exact = p->exact;
     c.radius = rest_radius(src);
+    c.ev_gen = -1;
     if (!(c.radius > 0.0))
         return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
     nthreads = p->threads > 0 ? p->threads : omp_get_max_threads();
