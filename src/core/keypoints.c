@@ -63,8 +63,9 @@ typedef struct {
     int32_t ev_k;
     /* Fast mode: candidate i's Green's function for the handle set of
      * generation ggen[i] (-1: none) at gcache + i nv; the generation counts
-     * the commits.  Every part holds every candidate's (gcache_fill): they
-     * are solved once, then carried across each commit by a rank-one
+     * the commits.  Every part holds every candidate's (gcache_fill: the
+     * solves shared out over the parts and put together): they are solved
+     * once, then carried across each commit by a rank-one
      * update (gcache_move) instead of solved again, and a candidate's
      * history, so its bits, must not depend on which part evaluates it.
      * NULL when it would take more than KP_GCACHE_MAX doubles (or memory
@@ -76,13 +77,15 @@ typedef struct {
 
 /* Largest Green's function cache, in doubles (256 MiB). */
 #define KP_GCACHE_MAX ((size_t)1 << 25)
+/* Largest piece of it put together over the parts in one reduce call. */
+#define KP_REDUCE_MAX ((size_t)1 << 22)
 
 /* Per-thread workspace for one evaluation with up to mmax key points. */
 typedef struct {
-    double *W;       /* nv x mmax */
-    double *T;       /* nframes x mmax x 12 */
-    double *Q;       /* nv x 3 */
-    int32_t *labels; /* nv */
+    double *W;        /* nv x mmax */
+    double *T;        /* nframes x mmax x 12 */
+    double *Q;        /* nv x 3 */
+    int32_t *labels;  /* nv */
     int32_t *handles; /* mmax */
     dtx_bbw_work *bw;
     dtx_skin_eval_work *ew; /* fast mode */
@@ -266,30 +269,101 @@ static void round_share(const unsigned char *inset, int32_t ncand, const dtx_kp_
 }
 
 /* Fast mode with the cache: the Green's function of every candidate not
- * in the set that has none for the current set, on every part alike (so a
- * candidate's function does not depend on the number of parts).  A failed
- * solve leaves ggen[i] = -1: round_eval tries again and counts the
- * failure. */
-static void gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
-                        const unsigned char *inset, kp_work *ws, int nthreads)
+ * in the set that has none for the current set (in the first round, all
+ * of them).  The solves are shared out over the parts, the j-th candidate
+ * that needs one to part j % parts, and the parts' rows put together
+ * through p->reduce (+INFINITY where a part did not solve), so that every
+ * part ends with every candidate's function: one solve from the same
+ * factor whichever part runs it, so the bits do not depend on the number
+ * of parts.  flag: ncand doubles of scratch (0 solved, 1 failed).  A
+ * failed solve (or a non-finite result) leaves ggen[i] = -1 on every part:
+ * round_eval tries again and counts the failure.  Every part makes the
+ * same reduce calls (what needs a solve is the same on every part).
+ * Errors: those of p->reduce only (*reduce_failed set). */
+static dtx_status gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
+                              const unsigned char *inset, kp_work *ws, int nthreads,
+                              const dtx_kp_params *p, double *flag, int64_t *solves,
+                              int *reduce_failed, dtx_error *err)
 {
-    int need = 0;
+    int32_t lo = -1, hi = -1, j = 0;
+    int64_t ns = 0;
+    const size_t nv = (size_t)c->nv;
+    int factored;
+    dtx_status st;
     dtx_error e0;
+    /* What needs a solve, agreed over the parts (flag[i] 0 where any part
+     * needs it): a part can lack a function the others carried (a move
+     * that failed for memory on it alone), and every part must make the
+     * same reduce calls and end with the same bits. */
     for (int32_t i = 0; i < ncand; i++)
-        need |= !inset[i] && c->ggen[i] != c->gen;
-    /* A carried commit (key_commit) left the set unfactored. */
-    if (!need || dtx_bbw_incr_factor(incr, &e0) != DTX_OK)
-        return;
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1)
-    for (int32_t i = 0; i < ncand; i++) {
-        dtx_error e;
-        if (inset[i] || c->ggen[i] == c->gen)
-            continue;
-        c->ggen[i] = dtx_bbw_incr_green(incr, cand[i], c->gcache + (size_t)i * (size_t)c->nv,
-                                        ws[omp_get_thread_num()].bw, &e) == DTX_OK
-                         ? c->gen
-                         : -1;
+        flag[i] = !inset[i] && c->ggen[i] != c->gen ? 0.0 : 1.0;
+    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, flag, ncand, 1, err)) != DTX_OK) {
+        *reduce_failed = 1;
+        return st;
     }
+    for (int32_t i = 0; i < ncand; i++)
+        if (flag[i] == 0.0) {
+            c->ggen[i] = -1;
+            lo = lo < 0 ? i : lo;
+            hi = i + 1;
+        }
+    if (lo < 0)
+        return DTX_OK;
+    /* A carried commit (key_commit) left the set unfactored. */
+    factored = dtx_bbw_incr_factor(incr, &e0) == DTX_OK;
+    if (!factored && p->part_count == 1)
+        return DTX_OK;
+    /* flag[i]: -1 this part solves it, +INFINITY another part does, 0 no
+     * solve needed. */
+    for (int32_t i = 0; i < ncand; i++) {
+        if (flag[i] != 0.0) {
+            flag[i] = 0.0;
+            continue;
+        }
+        if (j++ % p->part_count == p->part_index)
+            flag[i] = -1.0;
+        else {
+            flag[i] = INFINITY;
+            for (size_t r = 0; r < nv; r++)
+                c->gcache[(size_t)i * nv + r] = INFINITY;
+        }
+    }
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ns)
+    for (int32_t i = 0; i < ncand; i++) {
+        double *g = c->gcache + (size_t)i * nv;
+        dtx_error e;
+        int ok;
+        if (flag[i] != -1.0)
+            continue;
+        ns += factored;
+        ok = factored &&
+             dtx_bbw_incr_green(incr, cand[i], g, ws[omp_get_thread_num()].bw, &e) == DTX_OK;
+        for (size_t r = 0; ok && r < nv; r++)
+            ok = isfinite(g[r]);
+        if (!ok) /* defined values for the other parts' minimum */
+            for (size_t r = 0; r < nv; r++)
+                g[r] = 0.0;
+        flag[i] = ok ? 0.0 : 1.0;
+    }
+    *solves += ns;
+    /* In pieces of at most KP_REDUCE_MAX doubles: the reduction may take
+     * buffers of its size. */
+    for (size_t o = (size_t)lo * nv, end = (size_t)hi * nv; p->part_count > 1 && o < end;) {
+        size_t n = end - o < KP_REDUCE_MAX ? end - o : KP_REDUCE_MAX;
+        if ((st = p->reduce(p->reduce_ctx, c->gcache + o, (int32_t)n, 1, err)) != DTX_OK) {
+            *reduce_failed = 1;
+            return st;
+        }
+        o += n;
+    }
+    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, flag, ncand, 1, err)) != DTX_OK) {
+        *reduce_failed = 1;
+        return st;
+    }
+    for (int32_t i = 0; i < ncand; i++)
+        if (c->ggen[i] == -1 && !inset[i])
+            c->ggen[i] = flag[i] == 0.0 ? c->gen : -1;
+    return DTX_OK;
 }
 
 /* Before the commit that adds candidate b (replace_j < 0) or puts it in
@@ -345,15 +419,15 @@ static dtx_status key_commit(const kp_ctx *c, dtx_bbw_incr *incr, const int32_t 
 static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                        int32_t ncand, const unsigned char *inset, int replace_j, kp_work *ws,
                        int nthreads, const dtx_kp_params *p, unsigned char *mine, double *errs,
-                       int64_t *evals, int64_t *failed)
+                       int64_t *evals, int64_t *failed, int64_t *solves)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     const int32_t mm = replace_j < 0 ? m + 1 : m;
-    int64_t ev = 0, fl = 0;
+    int64_t ev = 0, fl = 0, ns = 0;
     for (int32_t i = 0; i < ncand; i++)
         errs[i] = INFINITY;
     round_share(inset, ncand, p, mine);
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl)
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl, ns)
     for (int32_t i = 0; i < ncand; i++) {
         kp_work *w = &ws[omp_get_thread_num()];
         dtx_error e;
@@ -372,6 +446,7 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             if (c->gcache) {
                 double *gi = c->gcache + (size_t)i * (size_t)c->nv;
                 if (c->ggen[i] != c->gen) {
+                    ns++;
                     st = dtx_bbw_incr_green(incr, cand[i], gi, w->bw, &e);
                     c->ggen[i] = st == DTX_OK ? c->gen : -1;
                 }
@@ -396,6 +471,7 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
     }
     *evals += ev;
     *failed += fl;
+    *solves += ns;
 }
 
 /* The smallest finite entry (lowest index on ties), or -1. */
@@ -463,10 +539,12 @@ static dtx_status score_round(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    if (!c->exact && c->gcache)
-        gcache_fill(c, incr, cand, res->ncand, inset, ws, nthreads);
+    if (!c->exact && c->gcache &&
+        (st = gcache_fill(c, incr, cand, res->ncand, inset, ws, nthreads, p, errs, &res->solves,
+                          reduce_failed, err)) != DTX_OK)
+        return st;
     round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, mine, errs,
-               &res->evaluations, &res->failed);
+               &res->evaluations, &res->failed, &res->solves);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
         return st;
@@ -550,15 +628,15 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         goto fail;
 
     /* Rest mesh and clustering features. */
-    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
-                       0);
+    c.feat =
+        dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat, 0);
     if (!c.feat) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         goto fail;
     }
     c.skin.threads = nthreads;
-    if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
-                                   err)) != DTX_OK ||
+    if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm, err)) !=
+            DTX_OK ||
         (st = dtx_skin_features(c.sm, nframes, X, &c.skin, c.feat, err)) != DTX_OK)
         goto fail;
 
@@ -579,7 +657,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if ((st = dtx_bbw_incr_create(src, res->keys, res->count, &incr, err)) != DTX_OK)
         goto fail;
     if (!c.exact && (size_t)res->ncand * (size_t)c.nv <= KP_GCACHE_MAX) {
-        c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 0);
+        /* Zeroed: the parts put rows together over spans that may hold
+         * rows nobody solved (gcache_fill), which must be defined. */
+        c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 1);
         c.ggen = dtx_alloc((size_t)res->ncand, sizeof *c.ggen, 0);
         c.gverts = dtx_alloc((size_t)res->ncand, sizeof *c.gverts, 0);
         if (!c.gcache || !c.ggen || !c.gverts) { /* only slower without */
@@ -739,8 +819,8 @@ dtx_status dtx_keypoints_error(const dtx_mesh *src, int32_t nframes, const doubl
         return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
     if (work_alloc(&w, &c, m, NULL) != 0)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
-                       0);
+    c.feat =
+        dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat, 0);
     if (!c.feat)
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
     else if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,

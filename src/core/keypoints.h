@@ -136,6 +136,9 @@ typedef struct {
     int sweeps;             /* stage-2 sweeps done */
     int64_t evaluations;    /* candidate sets evaluated by this part */
     int64_t failed;         /* evaluations that failed (singular fit): error +inf */
+    int64_t solves;         /* fast mode: candidates' Green's functions solved by
+                               this part (the rest are carried across commits or
+                               come from the other parts) */
     double radius;          /* R, the error's length unit */
     double *weights;        /* the final set's bounded biharmonic weights on the
                                source (nv x count, as dtx_bbw gives them; owned),
