@@ -291,22 +291,19 @@ static dtx_status gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand
     int factored;
     dtx_status st;
     dtx_error e0;
-    /* What needs a solve, agreed over the parts (flag[i] 0 where any part
-     * needs it): a part can lack a function the others carried (a move
-     * that failed for memory on it alone), and every part must make the
-     * same reduce calls and end with the same bits. */
-    for (int32_t i = 0; i < ncand; i++)
+    /* What needs a solve is the same on every part: ggen changes only
+     * here (through the parts' flags), in gcache_move (the same on every
+     * part, or the selection fails) and never in round_eval's own solves
+     * when there are several parts; so every part makes the same reduce
+     * calls. */
+    for (int32_t i = 0; i < ncand; i++) {
         flag[i] = !inset[i] && c->ggen[i] != c->gen ? 0.0 : 1.0;
-    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, flag, ncand, 1, err)) != DTX_OK) {
-        *reduce_failed = 1;
-        return st;
-    }
-    for (int32_t i = 0; i < ncand; i++)
         if (flag[i] == 0.0) {
             c->ggen[i] = -1;
             lo = lo < 0 ? i : lo;
             hi = i + 1;
         }
+    }
     if (lo < 0)
         return DTX_OK;
     /* A carried commit (key_commit) left the set unfactored. */
@@ -371,15 +368,17 @@ static dtx_status gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand
  * that stays out of the set, and the one of the key that leaves it, is
  * carried to the new set (dtx_bbw_incr_green_move) and marked with the
  * next generation.  When that is not possible (b's own function missing,
- * a key alone in its component, memory) nothing is marked, and the next
- * round's gcache_fill solves them afresh. */
-static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
-                        const unsigned char *inset, int32_t b, int replace_j, int nthreads)
+ * a key alone in its component, memory with one part) nothing is marked,
+ * and the next round's gcache_fill solves them afresh.  Errors: DTX_ENOMEM
+ * with several parts. */
+static dtx_status gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+                              int32_t ncand, const unsigned char *inset, int32_t b, int replace_j,
+                              int nthreads, const dtx_kp_params *p, dtx_error *err)
 {
     int32_t hj = replace_j >= 0 ? dtx_bbw_incr_handles(incr)[replace_j] : -1;
-    dtx_error e;
+    dtx_status st;
     if (!c->gcache || c->ggen[b] != c->gen)
-        return;
+        return DTX_OK;
     for (int32_t i = 0; i < ncand; i++) {
         c->gverts[i] = -1;
         if (i == b)
@@ -389,12 +388,17 @@ static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand
         else if (!inset[i] && c->ggen[i] == c->gen)
             c->gverts[i] = cand[i];
     }
-    if (dtx_bbw_incr_green_move(incr, replace_j, cand[b], c->gcache + (size_t)b * (size_t)c->nv,
-                                ncand, c->gverts, c->gcache, nthreads, &e) != DTX_OK)
-        return;
+    if ((st = dtx_bbw_incr_green_move(incr, replace_j, cand[b],
+                                      c->gcache + (size_t)b * (size_t)c->nv, ncand, c->gverts,
+                                      c->gcache, nthreads, err)) != DTX_OK)
+        /* Out of memory on one part would leave the parts' caches
+         * different (see gcache_fill): an error then; the other failures
+         * are the same on every part. */
+        return st == DTX_ENOMEM && p->part_count > 1 ? st : DTX_OK;
     for (int32_t i = 0; i < ncand; i++)
         if (c->gverts[i] >= 0)
             c->ggen[i] = c->gen + 1;
+    return DTX_OK;
 }
 
 /* The commit of candidate b (added, or in place of key replace_j): carried
@@ -448,7 +452,9 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
                 if (c->ggen[i] != c->gen) {
                     ns++;
                     st = dtx_bbw_incr_green(incr, cand[i], gi, w->bw, &e);
-                    c->ggen[i] = st == DTX_OK ? c->gen : -1;
+                    /* Kept by this part alone: several parts must
+                     * agree on what gcache_fill solves. */
+                    c->ggen[i] = st == DTX_OK && p->part_count == 1 ? c->gen : -1;
                 }
                 g = gi;
             }
@@ -694,7 +700,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             goto fail;
         if (b < 0 || !(errs[b] < res->error))
             break;
-        gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads);
+        if ((st = gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads, p, err)) !=
+            DTX_OK)
+            goto fail;
         if ((st = key_commit(&c, incr, cand, b, -1, ws, err)) != DTX_OK)
             goto fail;
         c.gen++;
@@ -723,7 +731,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;
-            gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads);
+            if ((st = gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads, p,
+                                  err)) != DTX_OK)
+                goto fail;
             if ((st = key_commit(&c, incr, cand, b, (int)j, ws, err)) != DTX_OK)
                 goto fail;
             c.gen++;
