@@ -56,10 +56,16 @@ typedef struct {
     dtx_skin_params skin;
     int exact;
     dtx_skin_eval *ev; /* the round's frames, clustering and starting rotations (fast mode) */
+    /* The set generation (gen) and cluster count ev was built for (-1:
+     * none): a round on the same set with as many clusters (a replacement
+     * round after a rejected one) would build it again bit for bit. */
+    int64_t ev_gen;
+    int32_t ev_k;
     /* Fast mode: candidate i's Green's function for the handle set of
      * generation ggen[i] (-1: none) at gcache + i nv; the generation counts
-     * the commits.  Every part holds every candidate's (gcache_fill): they
-     * are solved once, then carried across each commit by a rank-one
+     * the commits.  Every part holds every candidate's (gcache_fill: the
+     * solves shared out over the parts and put together): they are solved
+     * once, then carried across each commit by a rank-one
      * update (gcache_move) instead of solved again, and a candidate's
      * history, so its bits, must not depend on which part evaluates it.
      * NULL when it would take more than KP_GCACHE_MAX doubles (or memory
@@ -71,13 +77,15 @@ typedef struct {
 
 /* Largest Green's function cache, in doubles (256 MiB). */
 #define KP_GCACHE_MAX ((size_t)1 << 25)
+/* Largest piece of it put together over the parts in one reduce call. */
+#define KP_REDUCE_MAX ((size_t)1 << 22)
 
 /* Per-thread workspace for one evaluation with up to mmax key points. */
 typedef struct {
-    double *W;       /* nv x mmax */
-    double *T;       /* nframes x mmax x 12 */
-    double *Q;       /* nv x 3 */
-    int32_t *labels; /* nv */
+    double *W;        /* nv x mmax */
+    double *T;        /* nframes x mmax x 12 */
+    double *Q;        /* nv x 3 */
+    int32_t *labels;  /* nv */
     int32_t *handles; /* mmax */
     dtx_bbw_work *bw;
     dtx_skin_eval_work *ew; /* fast mode */
@@ -261,30 +269,98 @@ static void round_share(const unsigned char *inset, int32_t ncand, const dtx_kp_
 }
 
 /* Fast mode with the cache: the Green's function of every candidate not
- * in the set that has none for the current set, on every part alike (so a
- * candidate's function does not depend on the number of parts).  A failed
- * solve leaves ggen[i] = -1: round_eval tries again and counts the
- * failure. */
-static void gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
-                        const unsigned char *inset, kp_work *ws, int nthreads)
+ * in the set that has none for the current set (in the first round, all
+ * of them).  The solves are shared out over the parts, the j-th candidate
+ * that needs one to part j % parts, and the parts' rows put together
+ * through p->reduce (+INFINITY where a part did not solve), so that every
+ * part ends with every candidate's function: one solve from the same
+ * factor whichever part runs it, so the bits do not depend on the number
+ * of parts.  flag: ncand doubles of scratch (0 solved, 1 failed).  A
+ * failed solve (or a non-finite result) leaves ggen[i] = -1 on every part:
+ * round_eval tries again and counts the failure.  Every part makes the
+ * same reduce calls (what needs a solve is the same on every part).
+ * Errors: those of p->reduce only (*reduce_failed set). */
+static dtx_status gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
+                              const unsigned char *inset, kp_work *ws, int nthreads,
+                              const dtx_kp_params *p, double *flag, int64_t *solves,
+                              int *reduce_failed, dtx_error *err)
 {
-    int need = 0;
+    int32_t lo = -1, hi = -1, j = 0;
+    int64_t ns = 0;
+    const size_t nv = (size_t)c->nv;
+    int factored;
+    dtx_status st;
     dtx_error e0;
-    for (int32_t i = 0; i < ncand; i++)
-        need |= !inset[i] && c->ggen[i] != c->gen;
-    /* A carried commit (key_commit) left the set unfactored. */
-    if (!need || dtx_bbw_incr_factor(incr, &e0) != DTX_OK)
-        return;
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1)
+    /* What needs a solve is the same on every part: ggen changes only
+     * here (through the parts' flags), in gcache_move (the same on every
+     * part, or the selection fails) and never in round_eval's own solves
+     * when there are several parts; so every part makes the same reduce
+     * calls. */
     for (int32_t i = 0; i < ncand; i++) {
-        dtx_error e;
-        if (inset[i] || c->ggen[i] == c->gen)
-            continue;
-        c->ggen[i] = dtx_bbw_incr_green(incr, cand[i], c->gcache + (size_t)i * (size_t)c->nv,
-                                        ws[omp_get_thread_num()].bw, &e) == DTX_OK
-                         ? c->gen
-                         : -1;
+        flag[i] = !inset[i] && c->ggen[i] != c->gen ? 0.0 : 1.0;
+        if (flag[i] == 0.0) {
+            c->ggen[i] = -1;
+            lo = lo < 0 ? i : lo;
+            hi = i + 1;
+        }
     }
+    if (lo < 0)
+        return DTX_OK;
+    /* A carried commit (key_commit) left the set unfactored. */
+    factored = dtx_bbw_incr_factor(incr, &e0) == DTX_OK;
+    if (!factored && p->part_count == 1)
+        return DTX_OK;
+    /* flag[i]: -1 this part solves it, +INFINITY another part does, 0 no
+     * solve needed. */
+    for (int32_t i = 0; i < ncand; i++) {
+        if (flag[i] != 0.0) {
+            flag[i] = 0.0;
+            continue;
+        }
+        if (j++ % p->part_count == p->part_index)
+            flag[i] = -1.0;
+        else {
+            flag[i] = INFINITY;
+            for (size_t r = 0; r < nv; r++)
+                c->gcache[(size_t)i * nv + r] = INFINITY;
+        }
+    }
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ns)
+    for (int32_t i = 0; i < ncand; i++) {
+        double *g = c->gcache + (size_t)i * nv;
+        dtx_error e;
+        int ok;
+        if (flag[i] != -1.0)
+            continue;
+        ns += factored;
+        ok = factored &&
+             dtx_bbw_incr_green(incr, cand[i], g, ws[omp_get_thread_num()].bw, &e) == DTX_OK;
+        for (size_t r = 0; ok && r < nv; r++)
+            ok = isfinite(g[r]);
+        if (!ok) /* defined values for the other parts' minimum */
+            for (size_t r = 0; r < nv; r++)
+                g[r] = 0.0;
+        flag[i] = ok ? 0.0 : 1.0;
+    }
+    *solves += ns;
+    /* In pieces of at most KP_REDUCE_MAX doubles: the reduction may take
+     * buffers of its size. */
+    for (size_t o = (size_t)lo * nv, end = (size_t)hi * nv; p->part_count > 1 && o < end;) {
+        size_t n = end - o < KP_REDUCE_MAX ? end - o : KP_REDUCE_MAX;
+        if ((st = p->reduce(p->reduce_ctx, c->gcache + o, (int32_t)n, 1, err)) != DTX_OK) {
+            *reduce_failed = 1;
+            return st;
+        }
+        o += n;
+    }
+    if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, flag, ncand, 1, err)) != DTX_OK) {
+        *reduce_failed = 1;
+        return st;
+    }
+    for (int32_t i = 0; i < ncand; i++)
+        if (c->ggen[i] == -1 && !inset[i])
+            c->ggen[i] = flag[i] == 0.0 ? c->gen : -1;
+    return DTX_OK;
 }
 
 /* Before the commit that adds candidate b (replace_j < 0) or puts it in
@@ -292,15 +368,17 @@ static void gcache_fill(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand, int3
  * that stays out of the set, and the one of the key that leaves it, is
  * carried to the new set (dtx_bbw_incr_green_move) and marked with the
  * next generation.  When that is not possible (b's own function missing,
- * a key alone in its component, memory) nothing is marked, and the next
- * round's gcache_fill solves them afresh. */
-static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand, int32_t ncand,
-                        const unsigned char *inset, int32_t b, int replace_j, int nthreads)
+ * a key alone in its component, memory with one part) nothing is marked,
+ * and the next round's gcache_fill solves them afresh.  Errors: DTX_ENOMEM
+ * with several parts. */
+static dtx_status gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
+                              int32_t ncand, const unsigned char *inset, int32_t b, int replace_j,
+                              int nthreads, const dtx_kp_params *p, dtx_error *err)
 {
     int32_t hj = replace_j >= 0 ? dtx_bbw_incr_handles(incr)[replace_j] : -1;
-    dtx_error e;
+    dtx_status st;
     if (!c->gcache || c->ggen[b] != c->gen)
-        return;
+        return DTX_OK;
     for (int32_t i = 0; i < ncand; i++) {
         c->gverts[i] = -1;
         if (i == b)
@@ -310,12 +388,17 @@ static void gcache_move(kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand
         else if (!inset[i] && c->ggen[i] == c->gen)
             c->gverts[i] = cand[i];
     }
-    if (dtx_bbw_incr_green_move(incr, replace_j, cand[b], c->gcache + (size_t)b * (size_t)c->nv,
-                                ncand, c->gverts, c->gcache, nthreads, &e) != DTX_OK)
-        return;
+    if ((st = dtx_bbw_incr_green_move(incr, replace_j, cand[b],
+                                      c->gcache + (size_t)b * (size_t)c->nv, ncand, c->gverts,
+                                      c->gcache, nthreads, err)) != DTX_OK)
+        /* Out of memory on one part would leave the parts' caches
+         * different (see gcache_fill): an error then; the other failures
+         * are the same on every part. */
+        return st == DTX_ENOMEM && p->part_count > 1 ? st : DTX_OK;
     for (int32_t i = 0; i < ncand; i++)
         if (c->gverts[i] >= 0)
             c->ggen[i] = c->gen + 1;
+    return DTX_OK;
 }
 
 /* The commit of candidate b (added, or in place of key replace_j): carried
@@ -340,15 +423,15 @@ static dtx_status key_commit(const kp_ctx *c, dtx_bbw_incr *incr, const int32_t 
 static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t *cand,
                        int32_t ncand, const unsigned char *inset, int replace_j, kp_work *ws,
                        int nthreads, const dtx_kp_params *p, unsigned char *mine, double *errs,
-                       int64_t *evals, int64_t *failed)
+                       int64_t *evals, int64_t *failed, int64_t *solves)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
     const int32_t mm = replace_j < 0 ? m + 1 : m;
-    int64_t ev = 0, fl = 0;
+    int64_t ev = 0, fl = 0, ns = 0;
     for (int32_t i = 0; i < ncand; i++)
         errs[i] = INFINITY;
     round_share(inset, ncand, p, mine);
-#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl)
+#pragma omp parallel for num_threads(nthreads) schedule(dynamic, 1) reduction(+ : ev, fl, ns)
     for (int32_t i = 0; i < ncand; i++) {
         kp_work *w = &ws[omp_get_thread_num()];
         dtx_error e;
@@ -367,8 +450,11 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
             if (c->gcache) {
                 double *gi = c->gcache + (size_t)i * (size_t)c->nv;
                 if (c->ggen[i] != c->gen) {
+                    ns++;
                     st = dtx_bbw_incr_green(incr, cand[i], gi, w->bw, &e);
-                    c->ggen[i] = st == DTX_OK ? c->gen : -1;
+                    /* Kept by this part alone: several parts must
+                     * agree on what gcache_fill solves. */
+                    c->ggen[i] = st == DTX_OK && p->part_count == 1 ? c->gen : -1;
                 }
                 g = gi;
             }
@@ -391,6 +477,7 @@ static void round_eval(const kp_ctx *c, const dtx_bbw_incr *incr, const int32_t 
     }
     *evals += ev;
     *failed += fl;
+    *solves += ns;
 }
 
 /* The smallest finite entry (lowest index on ties), or -1. */
@@ -404,13 +491,18 @@ static int32_t argmin(const double *v, int32_t n)
 }
 
 /* The round's clustering (fast mode): the current set's clamped weights,
- * and c->ev for it. */
+ * and c->ev for it.  Kept from the round before when that one had the
+ * same set and cluster count (it depends on nothing else).  Leaves
+ * w->labels alone when kept. */
 static dtx_status round_labels(kp_ctx *c, const dtx_bbw_incr *incr, int32_t k, int threads,
                                kp_work *w, dtx_error *e)
 {
     const int32_t m = dtx_bbw_incr_count(incr);
-    memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
     dtx_status st;
+    if (c->ev && c->ev_gen == c->gen && c->ev_k == k)
+        return DTX_OK;
+    c->ev_gen = -1;
+    memcpy(w->W, dtx_bbw_incr_weights(incr), (size_t)c->nv * (size_t)m * sizeof *w->W);
     if (dtx_bbw_clamp_normalise(w->W, c->nv, m, NULL) < 0)
         return dtx_seterr(e, DTX_ESOLVE, "key points: weights of the current set sum to 0");
     if ((st = cluster(c, m, w->W, k < c->nv ? k : c->nv, threads, w->labels, e)) != DTX_OK)
@@ -418,7 +510,12 @@ static dtx_status round_labels(kp_ctx *c, const dtx_bbw_incr *incr, int32_t k, i
     /* Every candidate of the round is fitted with this clustering, from
      * the same starting rotations. */
     dtx_skin_eval_free(&c->ev);
-    return dtx_skin_eval_create(c->sm, w->labels, k, c->nframes, c->X, &c->skin, &c->ev, e);
+    if ((st = dtx_skin_eval_create(c->sm, w->labels, k, c->nframes, c->X, &c->skin, &c->ev, e)) !=
+        DTX_OK)
+        return st;
+    c->ev_gen = c->gen;
+    c->ev_k = k;
+    return DTX_OK;
 }
 
 static dtx_status push_trace(dtx_kp_result *r, int32_t *cap, double v, dtx_error *err)
@@ -448,10 +545,12 @@ static dtx_status score_round(kp_ctx *c, dtx_bbw_incr *incr, const int32_t *cand
     dtx_status st;
     if (!c->exact && (st = round_labels(c, incr, k, nthreads, &ws[0], err)) != DTX_OK)
         return st;
-    if (!c->exact && c->gcache)
-        gcache_fill(c, incr, cand, res->ncand, inset, ws, nthreads);
+    if (!c->exact && c->gcache &&
+        (st = gcache_fill(c, incr, cand, res->ncand, inset, ws, nthreads, p, errs, &res->solves,
+                          reduce_failed, err)) != DTX_OK)
+        return st;
     round_eval(c, incr, cand, res->ncand, inset, replace_j, ws, nthreads, p, mine, errs,
-               &res->evaluations, &res->failed);
+               &res->evaluations, &res->failed, &res->solves);
     if (p->part_count > 1 && (st = p->reduce(p->reduce_ctx, errs, res->ncand, 1, err)) != DTX_OK) {
         *reduce_failed = 1;
         return st;
@@ -498,6 +597,7 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     c.skin = p->skin;
     c.exact = p->exact;
     c.radius = rest_radius(src);
+    c.ev_gen = -1;
     if (!(c.radius > 0.0))
         return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
     nthreads = p->threads > 0 ? p->threads : omp_get_max_threads();
@@ -534,15 +634,15 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
         goto fail;
 
     /* Rest mesh and clustering features. */
-    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
-                       0);
+    c.feat =
+        dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat, 0);
     if (!c.feat) {
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
         goto fail;
     }
     c.skin.threads = nthreads;
-    if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,
-                                   err)) != DTX_OK ||
+    if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm, err)) !=
+            DTX_OK ||
         (st = dtx_skin_features(c.sm, nframes, X, &c.skin, c.feat, err)) != DTX_OK)
         goto fail;
 
@@ -563,7 +663,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
     if ((st = dtx_bbw_incr_create(src, res->keys, res->count, &incr, err)) != DTX_OK)
         goto fail;
     if (!c.exact && (size_t)res->ncand * (size_t)c.nv <= KP_GCACHE_MAX) {
-        c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 0);
+        /* Zeroed: the parts put rows together over spans that may hold
+         * rows nobody solved (gcache_fill), which must be defined. */
+        c.gcache = dtx_alloc((size_t)res->ncand * (size_t)c.nv, sizeof *c.gcache, 1);
         c.ggen = dtx_alloc((size_t)res->ncand, sizeof *c.ggen, 0);
         c.gverts = dtx_alloc((size_t)res->ncand, sizeof *c.gverts, 0);
         if (!c.gcache || !c.ggen || !c.gverts) { /* only slower without */
@@ -598,7 +700,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
             goto fail;
         if (b < 0 || !(errs[b] < res->error))
             break;
-        gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads);
+        if ((st = gcache_move(&c, incr, cand, res->ncand, inset, b, -1, nthreads, p, err)) !=
+            DTX_OK)
+            goto fail;
         if ((st = key_commit(&c, incr, cand, b, -1, ws, err)) != DTX_OK)
             goto fail;
         c.gen++;
@@ -627,7 +731,9 @@ dtx_status dtx_keypoints_select(const dtx_mesh *src, int32_t nframes, const doub
                 goto fail;
             if (b < 0 || !(errs[b] < res->error))
                 continue;
-            gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads);
+            if ((st = gcache_move(&c, incr, cand, res->ncand, inset, b, (int)j, nthreads, p,
+                                  err)) != DTX_OK)
+                goto fail;
             if ((st = key_commit(&c, incr, cand, b, (int)j, ws, err)) != DTX_OK)
                 goto fail;
             c.gen++;
@@ -723,8 +829,8 @@ dtx_status dtx_keypoints_error(const dtx_mesh *src, int32_t nframes, const doubl
         return dtx_seterr(err, DTX_EMESH, "key points: the source mesh has no extent");
     if (work_alloc(&w, &c, m, NULL) != 0)
         return dtx_seterr(err, DTX_ENOMEM, "out of memory");
-    c.feat = dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat,
-                       0);
+    c.feat =
+        dtx_alloc((size_t)src->nv, (size_t)DTX_SKIN_FEAT * (size_t)nframes * sizeof *c.feat, 0);
     if (!c.feat)
         st = dtx_seterr(err, DTX_ENOMEM, "out of memory");
     else if ((st = dtx_skin_mesh_create(src->V, src->nv, src->F, src->nf, DTX_SKIN_COTAN, &c.sm,

@@ -64,6 +64,9 @@
  * candidate's error is computed by one thread in a fixed way, and the best
  * candidate is the smallest error with ties to the lowest candidate index,
  * so the selection is bitwise the same for any number of threads and parts.
+ * The candidates' Green's functions (fast mode) are solved once over the
+ * parts, shared out like the candidates, and put together through reduce
+ * (one solve from the same factor whichever part runs it).
  * The final set's bounded weights (error_exact, weights) are shared out
  * over the parts by handle (in fixed blocks, or as the parts ask for them
  * through claim) and put together through reduce, bitwise as one part
@@ -136,6 +139,9 @@ typedef struct {
     int sweeps;             /* stage-2 sweeps done */
     int64_t evaluations;    /* candidate sets evaluated by this part */
     int64_t failed;         /* evaluations that failed (singular fit): error +inf */
+    int64_t solves;         /* fast mode: candidates' Green's functions solved by
+                               this part (the rest are carried across commits or
+                               come from the other parts) */
     double radius;          /* R, the error's length unit */
     double *weights;        /* the final set's bounded biharmonic weights on the
                                source (nv x count, as dtx_bbw gives them; owned),

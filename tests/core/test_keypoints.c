@@ -8,7 +8,8 @@
  *  - key points are distinct candidates;
  *  - 1 and 2 OpenMP threads, and two 1-thread parts combined by a reduce
  *    function (as MPI ranks would), choose the same points with bitwise the
- *    same errors;
+ *    same errors; the parts share the candidates' Green's-function solves
+ *    (as many in all as one part alone does);
  *  - a bigger threshold stops earlier (fewer points, error <= eps or no
  *    improving candidate);
  *  - the fast evaluation's final set, re-evaluated exactly, is within a
@@ -149,6 +150,13 @@ static void run_all(const char *what, const dtx_mesh *m, int32_t nframes, const 
         CHECK(same(&r1, &rp[0]));
         CHECK(same(&r1, &rp[1]));
         CHECK_INT(rp[0].evaluations + rp[1].evaluations, ==, r1.evaluations);
+        /* The candidates' Green's functions are solved once over the
+         * parts, shared out in turn (part 0 first), not once on each. */
+        CHECK_INT(r1.solves, >=, r1.ncand - r1.count);
+        CHECK_INT(rp[0].solves + rp[1].solves, ==, r1.solves);
+        CHECK_INT(rp[1].solves, >=, 1);
+        CHECK_INT(rp[0].solves - rp[1].solves, >=, 0);
+        CHECK_INT(rp[0].solves - rp[1].solves, <=, r1.solves - rp[0].solves);
         /* The round's candidates are dealt in turn, part 0 first: in each
          * round part 0 has as many as part 1 or one more, and a round
          * evaluates at least ncand - count candidates. */
