@@ -14,6 +14,8 @@
 #   3. Memory: the same job on 200 frames, peak memory against NFRAMES.
 #   4. Horse gallop -> camel (22k-vertex target) when the shared data is there
 #      (DTX_SHARED_DATA, default ../shared/data next to the repository).
+# Each timed run writes a new output; as root the page cache is written back
+# and dropped before it (the input read again), so every run starts alike.
 # Environment: DTX_SKIP_SETUP=1 skips scripts/setup.sh; DTX_BENCH_DIR (default
 # build/bench) holds the generated files (NFRAMES=20000 needs about 3 GB).
 set -euo pipefail
@@ -56,9 +58,19 @@ JOB
 # file system's freeing of it to the run, a cost of the file system that is
 # the same at any rank count (0.3-0.6 s for the 1.2 GB of 20,000 cat -> lion
 # frames on the 2-core VM, whose root is mounted with discard).
+# Where the page cache may be dropped (root), each run also starts from the
+# same cache: written back, dropped, the input read into it again (untimed).
+# A page cache left full by the runs before made the horse -> camel writes
+# 2-4x slower at random (1x1 write 0.9-1.5 s against 0.37-0.41 s after a
+# drop, the same binary), which the efficiency figures would count as dtx's.
 # OpenMPI binds each rank to one core by default: threads need --bind-to none.
 run() {
     rm -f "$work/$1-result.h5"
+    if [[ -w /proc/sys/vm/drop_caches ]]; then
+        sync
+        echo 3 > /proc/sys/vm/drop_caches
+        cat "$work/$1.h5" > /dev/null
+    fi
     OMP_NUM_THREADS=$3 mpirun --bind-to none --oversubscribe -np "$2" \
         build/dtx run --quiet "$work/$1.json"
     cp "$work/$1-result.h5.summary.json" "$work/$1-$2x$3.summary.json"
