@@ -262,6 +262,8 @@ static const struct {
     {"cpu", offsetof(phase_times, cpu)},
 };
 enum { NPHASES = sizeof phase_keys / sizeof phase_keys[0] };
+/* Up to this many ranks, the end of a run prints a line per rank. */
+enum { RANK_LINES_MAX = 8 };
 
 static double phase_of(const phase_times *tm, int i)
 {
@@ -398,8 +400,23 @@ void run_summarise(run_state *r)
                 r->tm.correspond, r->tm.factor, r->tm.output, r->tm.transfer, r->tm.write,
                 r->tm.finish, mean_of(&all), r->job.output_file);
     /* With several ranks, how each spent the run (the line above is rank
-     * 0's), so that a rank waiting for another shows. */
-    if (r->mode != OUT_DONE && r->nranks > 1)
+     * 0's), so that a rank waiting for another shows; with more than
+     * RANK_LINES_MAX ranks, each phase's least and most over the ranks (and
+     * which), every rank's being in the summary's seconds_per_rank. */
+    if (r->mode != OUT_DONE && r->nranks > RANK_LINES_MAX)
+        for (int i = 0; i < NPHASES; i++) {
+            int lo = 0, hi = 0;
+            for (int q = 1; q < r->nranks; q++) {
+                if (phase_of(&tms[q], i) < phase_of(&tms[lo], i))
+                    lo = q;
+                if (phase_of(&tms[q], i) > phase_of(&tms[hi], i))
+                    hi = q;
+            }
+            run_say(r, "dtx: %s over %d ranks (s): least %.3f (rank %d), most %.3f (rank %d)",
+                    phase_keys[i].name, r->nranks, phase_of(&tms[lo], i), lo,
+                    phase_of(&tms[hi], i), hi);
+        }
+    else if (r->mode != OUT_DONE && r->nranks > 1)
         for (int q = 0; q < r->nranks; q++) {
             char line[600];
             size_t len = 0;

@@ -76,6 +76,20 @@ check "summary: each of 3 ranks' phases" phases_per_rank "$W/np3.h5.summary.json
 check "summary: 1 rank, its phases" phases_per_rank "$W/np1.h5.summary.json" 1
 check "stderr: a line per rank" bash -c "grep -q '^dtx: rank 0 (s): read .*, wait .*, total .*, cpu' '$W/np2.log' &&
     grep -q '^dtx: rank 1 (s): read' '$W/np2.log' && ! grep -q '^dtx: rank 2 (s)' '$W/np2.log'"
+# More ranks than RANK_LINES_MAX (8): a line per phase with its least and
+# most over the ranks instead of a line per rank (plain pass only: nine
+# sanitized processes on two cores take long).  9 frames on 9 ranks, block
+# size 1, so that every rank transfers.
+if [[ ${DTX_SANITIZED:-0} != 1 ]]; then
+    job np9
+    sed -i 's/"block_frames": 8/"block_frames": 1/' "$W/np9.json"
+    OMP_NUM_THREADS=1 mpirun --oversubscribe -np 9 "$DTX" run "$W/np9.json" 2> "$W/np9.log"
+    check "9 ranks == 1 rank (1e-12)" "$DTX" diff "$W/np1.h5" "$W/np9.h5" $R --tol 1e-12
+    check "summary: each of 9 ranks' phases" phases_per_rank "$W/np9.h5.summary.json" 9
+    check "stderr at 9 ranks: a line per phase, none per rank" bash -c \
+        "[ \$(grep -c '^dtx: [a-z]* over 9 ranks (s): least [0-9.]* (rank [0-8]), most [0-9.]* (rank [0-8])\$' '$W/np9.log') -eq 11 ] &&
+         grep -q '^dtx: transfer over 9 ranks' '$W/np9.log' && ! grep -q '^dtx: rank [0-9] (s)' '$W/np9.log'"
+fi
 check "no temporary file left" test -z "$(ls "$W" | grep '\.tmp' || true)"
 
 # A second run reuses the correspondence cached in the output.
