@@ -1638,9 +1638,6 @@ static dtx_status check_frames(hid_t file, const char *path, int64_t nframes, in
     return DTX_OK;
 }
 
-/* Writes frames of a positions dataset, converting to float32 in *scratch
- * ourselves when needed (a type conversion inside HDF5 would turn a
- * collective MPI-IO write into independent ones). */
 /* Frames per chunk of a per-frame dataset (1 when it is not chunked). */
 static int64_t chunk_frames(hid_t dset)
 {
@@ -1654,6 +1651,19 @@ static int64_t chunk_frames(hid_t dset)
     return cf;
 }
 
+/* Frames per strip of float32 frames (nv vertices each) read or written
+ * one strip at a time: about 1 MiB, rounded up to whole chunks. */
+static int64_t strip_frames(hid_t dset, int32_t nv)
+{
+    const size_t per = (size_t)nv * 3u;
+    int64_t strip = (int64_t)((1u << 20) / (per * sizeof(float))), cf = chunk_frames(dset);
+    strip = strip < 1 ? 1 : strip;
+    return (strip + cf - 1) / cf * cf;
+}
+
+/* Writes frames of a positions dataset, converting to float32 in *scratch
+ * ourselves when needed (a type conversion inside HDF5 would turn a
+ * collective MPI-IO write into independent ones). */
 static dtx_status write_frames(hid_t file, hid_t dset, const char *path, int parallel,
                                int64_t nframes, int32_t nv, int is_f64, float **scratch,
                                size_t *scratch_n, int64_t first, int64_t count,
@@ -1685,9 +1695,7 @@ static dtx_status write_frames(hid_t file, hid_t dset, const char *path, int par
      * as every rank must make the same calls. */
     if (!is_f64 && count > 0 && !(parallel && collective)) {
         const size_t per = (size_t)nv * 3u;
-        int64_t strip = (int64_t)((1u << 20) / (per * sizeof(float))), cf = chunk_frames(dset);
-        strip = strip < 1 ? 1 : strip;
-        strip = (strip + cf - 1) / cf * cf;
+        int64_t strip = strip_frames(dset, nv);
         strip = strip > count ? count : strip;
         if (*scratch_n < (size_t)strip * per) {
             float *p = dtx_alloc((size_t)strip * per, sizeof *p, 0);
@@ -1761,12 +1769,7 @@ static dtx_status read_frames(hid_t file, hid_t dset, const char *path, int64_t 
                          (long long)(first + count));
         return DTX_OK;
     }
-    strip = (int64_t)((1u << 20) / (per * sizeof(float)));
-    strip = strip < 1 ? 1 : strip;
-    {
-        const int64_t cf = chunk_frames(dset);
-        strip = (strip + cf - 1) / cf * cf;
-    }
+    strip = strip_frames(dset, nv);
     for (int64_t g = 0; g < count;) {
         /* Frames [first + g, first + g + m): to the next multiple of the
          * strip, or the end. */
